@@ -1,0 +1,27 @@
+"""motionlab: deep generative models of human motion, the library behind the course.
+
+Modules load on first use, so ``import motionlab`` is instant and ``motionlab.data``
+(which needs torch) costs nothing until you touch it:
+
+    import motionlab
+    clips = motionlab.data.load("../shared/mocap/cmu", fps=20)
+"""
+from __future__ import annotations
+
+import importlib
+
+__version__ = "0.1.0"
+
+__all__ = ["bvh", "data", "filters", "metrics", "representation", "skeleton", "viz"]
+
+
+def __getattr__(name: str):
+    if name in __all__:
+        module = importlib.import_module(f".{name}", __name__)
+        globals()[name] = module
+        return module
+    raise AttributeError(f"module 'motionlab' has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(list(globals()) + __all__)

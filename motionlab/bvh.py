@@ -1,0 +1,327 @@
+"""BVH motion capture files: read, write, and forward kinematics.
+
+A BVH file has two parts. ``HIERARCHY`` declares a tree of joints: each joint has an
+``OFFSET`` from its parent (in the file's length units) and a list of ``CHANNELS``, the
+numbers each frame gives it, in the order they are applied (for example
+``Zrotation Yrotation Xrotation`` means the local rotation is ``Rz @ Ry @ Rx``).
+``MOTION`` gives the frame count, the frame time in seconds, and one line of numbers per
+frame, all joints' channels concatenated in hierarchy order. Angles are degrees.
+
+>>> clip = read("../shared/mocap/cmu/16_15.bvh")
+>>> clip.world_positions().shape        # (frames, joints, 3), file units
+(471, 31, 3)
+
+Conventions used here (shared by :func:`read` and :func:`write`):
+
+* A joint's local transform translates by its offset, except along axes that have a
+  position channel, where the channel value replaces the offset component; it then
+  rotates by the product of its rotation channels in file order.
+* World transforms compose parent-first: ``x_world = R_parent_world @ x_local + t``.
+"""
+from __future__ import annotations
+
+import io
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+POSITION_CHANNELS = ("Xposition", "Yposition", "Zposition")
+ROTATION_CHANNELS = ("Xrotation", "Yrotation", "Zrotation")
+_AXIS = {"X": 0, "Y": 1, "Z": 2}
+
+
+def axis_rotation(axis: str, degrees: np.ndarray) -> np.ndarray:
+    """Rotation matrices ``(..., 3, 3)`` about ``axis`` (``"X"``, ``"Y"`` or ``"Z"``) by
+    ``degrees`` (any shape), right-handed."""
+    radians = np.deg2rad(np.asarray(degrees, dtype=np.float64))
+    c, s = np.cos(radians), np.sin(radians)
+    zero, one = np.zeros_like(c), np.ones_like(c)
+    if axis == "X":
+        rows = [[one, zero, zero], [zero, c, -s], [zero, s, c]]
+    elif axis == "Y":
+        rows = [[c, zero, s], [zero, one, zero], [-s, zero, c]]
+    elif axis == "Z":
+        rows = [[c, -s, zero], [s, c, zero], [zero, zero, one]]
+    else:
+        raise ValueError(f"axis: expected 'X', 'Y' or 'Z', got {axis!r}")
+    return np.stack([np.stack(r, axis=-1) for r in rows], axis=-2)
+
+
+@dataclass
+class BVH:
+    """One BVH file in memory.
+
+    Attributes:
+        joint_names: names of the ``J`` joints, parents before children.
+        parents: ``(J,)`` int array, ``-1`` for the root.
+        offsets: ``(J, 3)`` offset of each joint from its parent, file units.
+        channels: per joint, the tuple of its channel names in file order.
+        motion: ``(frames, channels)`` float array, all channel values per frame.
+        frame_time: seconds per frame.
+        end_sites: joint index -> ``(3,)`` offset of that joint's ``End Site``.
+        path: the file it was read from, if any.
+    """
+
+    joint_names: list[str]
+    parents: np.ndarray
+    offsets: np.ndarray
+    channels: list[tuple[str, ...]]
+    motion: np.ndarray
+    frame_time: float
+    end_sites: dict[int, np.ndarray] = field(default_factory=dict)
+    path: str | None = None
+
+    @property
+    def fps(self) -> float:
+        """Frames per second, ``1 / frame_time``, snapped to a whole number when within
+        0.01 % of one (files write 120 fps as ``0.0083333``, i.e. 120.0005)."""
+        fps = 1.0 / self.frame_time
+        return float(round(fps)) if abs(fps - round(fps)) < 1e-4 * fps else fps
+
+    @property
+    def n_frames(self) -> int:
+        return self.motion.shape[0]
+
+    def channel_columns(self) -> list[slice]:
+        """Per joint, the slice of :attr:`motion` columns holding its channels."""
+        starts = np.concatenate([[0], np.cumsum([len(c) for c in self.channels])])
+        return [slice(int(a), int(b)) for a, b in zip(starts[:-1], starts[1:])]
+
+    def local_transforms(self) -> tuple[np.ndarray, np.ndarray]:
+        """Local rotations ``(frames, J, 3, 3)`` and translations ``(frames, J, 3)``."""
+        frames, n_joints = self.n_frames, len(self.joint_names)
+        rotations = np.broadcast_to(np.eye(3), (frames, n_joints, 3, 3)).copy()
+        translations = np.broadcast_to(self.offsets, (frames, n_joints, 3)).copy()
+        for j, columns in enumerate(self.channel_columns()):
+            values = self.motion[:, columns]
+            for k, name in enumerate(self.channels[j]):
+                axis = _AXIS[name[0]]
+                if name.endswith("position"):
+                    translations[:, j, axis] = values[:, k]
+                else:
+                    rotations[:, j] = rotations[:, j] @ axis_rotation(name[0], values[:, k])
+        return rotations, translations
+
+    def world_transforms(self) -> tuple[np.ndarray, np.ndarray]:
+        """World rotations ``(frames, J, 3, 3)`` and positions ``(frames, J, 3)``.
+
+        Forward kinematics, vectorised over frames (one step per joint).
+        """
+        local_rot, local_pos = self.local_transforms()
+        world_rot = np.empty_like(local_rot)
+        world_pos = np.empty_like(local_pos)
+        for j, p in enumerate(self.parents):
+            if p < 0:
+                world_rot[:, j] = local_rot[:, j]
+                world_pos[:, j] = local_pos[:, j]
+            else:
+                world_rot[:, j] = world_rot[:, p] @ local_rot[:, j]
+                world_pos[:, j] = np.einsum("fab,fb->fa", world_rot[:, p], local_pos[:, j]) + world_pos[:, p]
+        return world_rot, world_pos
+
+    def world_positions(self, include_end_sites: bool = False) -> np.ndarray:
+        """World joint positions ``(frames, J, 3)`` in file units.
+
+        With ``include_end_sites=True`` the End Sites follow the joints, in the order of
+        :attr:`end_sites`, giving ``(frames, J + E, 3)``.
+        """
+        world_rot, world_pos = self.world_transforms()
+        if not include_end_sites or not self.end_sites:
+            return world_pos
+        ends = [np.einsum("fab,b->fa", world_rot[:, j], off) + world_pos[:, j]
+                for j, off in self.end_sites.items()]
+        return np.concatenate([world_pos, np.stack(ends, axis=1)], axis=1)
+
+
+class _Tokens:
+    """The hierarchy's whitespace-separated tokens, each with its line number."""
+
+    def __init__(self, path: str, lines: list[str], end: int):
+        self.path = path
+        self.items = [(tok, n + 1) for n in range(end) for tok in lines[n].split()]
+        self.i = 0
+        self.last_line = end
+
+    def error(self, message: str, line: int | None = None) -> ValueError:
+        return ValueError(f"{self.path}:{line or self.current_line()}: {message}")
+
+    def current_line(self) -> int:
+        return self.items[self.i][1] if self.i < len(self.items) else self.last_line
+
+    def next(self, what: str) -> tuple[str, int]:
+        if self.i >= len(self.items):
+            raise self.error(f"unexpected end of HIERARCHY, expected {what}")
+        item = self.items[self.i]
+        self.i += 1
+        return item
+
+    def expect(self, word: str) -> None:
+        tok, line = self.next(repr(word))
+        if tok != word:
+            raise self.error(f"expected {word!r}, found {tok!r}", line)
+
+    def number(self, what: str) -> float:
+        tok, line = self.next(what)
+        try:
+            return float(tok)
+        except ValueError:
+            raise self.error(f"bad number {tok!r} for {what}", line) from None
+
+
+def read(path: str | Path) -> BVH:
+    """Read a BVH file.
+
+    Accepts any channel order per joint, position channels on any joint, End Sites,
+    CR-LF or LF line endings and ``Frame Time: .0083333``. A malformed file raises
+    ``ValueError`` whose message starts with ``"<file>:<line>:"``.
+    """
+    path = str(path)
+    try:
+        text = Path(path).read_text(encoding="utf-8", errors="replace")
+    except OSError as err:
+        raise ValueError(f"{path}: cannot read BVH file ({err.strerror})") from None
+    lines = text.splitlines()
+    motion_line = next((n for n, line in enumerate(lines) if line.strip() == "MOTION"), None)
+    if motion_line is None:
+        raise ValueError(f"{path}:{len(lines)}: no MOTION section")
+    tokens = _Tokens(path, lines, motion_line)
+    tokens.expect("HIERARCHY")
+
+    names: list[str] = []
+    parents: list[int] = []
+    offsets: list[list[float]] = []
+    channels: list[tuple[str, ...]] = []
+    end_sites: dict[int, np.ndarray] = {}
+
+    def parse_joint(parent: int) -> None:
+        name_tok, _ = tokens.next("a joint name")
+        index = len(names)
+        names.append(name_tok)
+        parents.append(parent)
+        offsets.append([0.0, 0.0, 0.0])
+        channels.append(())
+        tokens.expect("{")
+        while True:
+            tok, line = tokens.next("'}'")
+            if tok == "}":
+                return
+            if tok == "OFFSET":
+                offsets[index] = [tokens.number(f"the OFFSET of {name_tok}") for _ in range(3)]
+            elif tok == "CHANNELS":
+                count_tok, count_line = tokens.next("a channel count")
+                if not count_tok.isdigit():
+                    raise tokens.error(f"bad channel count {count_tok!r} for {name_tok}", count_line)
+                names_here = []
+                for _ in range(int(count_tok)):
+                    channel, channel_line = tokens.next("a channel name")
+                    if channel not in POSITION_CHANNELS + ROTATION_CHANNELS:
+                        raise tokens.error(f"unknown channel {channel!r} in joint {name_tok}", channel_line)
+                    names_here.append(channel)
+                channels[index] = tuple(names_here)
+            elif tok == "JOINT":
+                parse_joint(index)
+            elif tok == "End":
+                tokens.expect("Site")
+                tokens.expect("{")
+                tokens.expect("OFFSET")
+                end_sites[index] = np.array([tokens.number(f"the End Site OFFSET of {name_tok}")
+                                             for _ in range(3)])
+                tokens.expect("}")
+            else:
+                raise tokens.error(f"unexpected {tok!r} in joint {name_tok}", line)
+
+    tokens.expect("ROOT")
+    parse_joint(-1)
+    if tokens.i < len(tokens.items):
+        tok, line = tokens.items[tokens.i]
+        raise tokens.error(f"unexpected {tok!r} after the ROOT joint", line)
+
+    n_channels = sum(len(c) for c in channels)
+    n_frames, frame_time, first_data = _read_motion_header(path, lines, motion_line)
+    motion = _read_motion_values(path, lines, first_data, n_frames, n_channels)
+    return BVH(names, np.array(parents, dtype=np.int64), np.array(offsets, dtype=np.float64),
+               channels, motion, frame_time, end_sites, path)
+
+
+def _read_motion_header(path: str, lines: list[str], motion_line: int) -> tuple[int, float, int]:
+    """Parse ``Frames:`` and ``Frame Time:``; returns them and the first data line index."""
+    n = motion_line + 1
+    values = {}
+    for key in ("Frames:", "Frame Time:"):
+        while n < len(lines) and not lines[n].strip():
+            n += 1
+        line = lines[n].strip() if n < len(lines) else ""
+        if not line.startswith(key):
+            raise ValueError(f"{path}:{n + 1}: expected '{key}', found {line[:40]!r}")
+        word = line[len(key):].strip()
+        try:
+            values[key] = int(word) if key == "Frames:" else float(word)
+        except ValueError:
+            raise ValueError(f"{path}:{n + 1}: bad number {word!r} after '{key}'") from None
+        n += 1
+    if values["Frames:"] < 0 or values["Frame Time:"] <= 0:
+        raise ValueError(f"{path}:{n}: frame count must be >= 0 and frame time > 0")
+    return values["Frames:"], values["Frame Time:"], n
+
+
+def _read_motion_values(path: str, lines: list[str], first: int, n_frames: int,
+                        n_channels: int) -> np.ndarray:
+    rows = [(n, line) for n, line in enumerate(lines[first:], start=first) if line.strip()]
+    if len(rows) != n_frames:
+        where = rows[-1][0] + 1 if rows else first
+        raise ValueError(f"{path}:{where}: header says {n_frames} frames, file has {len(rows)}")
+    words = [line.split() for _, line in rows]
+    for (n, _), w in zip(rows, words):
+        if len(w) != n_channels:
+            raise ValueError(f"{path}:{n + 1}: expected {n_channels} values, found {len(w)}")
+    try:
+        return np.array(words, dtype=np.float64).reshape(n_frames, n_channels)
+    except ValueError:
+        for (n, _), w in zip(rows, words):
+            for word in w:
+                try:
+                    float(word)
+                except ValueError:
+                    raise ValueError(f"{path}:{n + 1}: bad number {word!r}") from None
+        raise
+
+
+def write(path: str | Path, clip: BVH, decimals: int = 6) -> None:
+    """Write ``clip`` as a BVH file that :func:`read` gives back unchanged.
+
+    Numbers are written with ``decimals`` decimal places (round trip to ``0.5 * 10**-decimals``).
+    """
+    out = io.StringIO()
+    fmt = f"%.{decimals}f"
+    children: dict[int, list[int]] = {}
+    for j, p in enumerate(clip.parents):
+        children.setdefault(int(p), []).append(j)
+
+    def emit(j: int, depth: int) -> None:
+        pad = "\t" * depth
+        keyword = "ROOT" if clip.parents[j] < 0 else "JOINT"
+        out.write(f"{pad}{keyword} {clip.joint_names[j]}\n{pad}{{\n")
+        out.write(f"{pad}\tOFFSET " + " ".join(fmt % v for v in clip.offsets[j]) + "\n")
+        if clip.channels[j]:
+            out.write(f"{pad}\tCHANNELS {len(clip.channels[j])} {' '.join(clip.channels[j])}\n")
+        for child in children.get(j, []):
+            emit(child, depth + 1)
+        if j in clip.end_sites:
+            out.write(f"{pad}\tEnd Site\n{pad}\t{{\n{pad}\t\tOFFSET "
+                      + " ".join(fmt % v for v in clip.end_sites[j]) + f"\n{pad}\t}}\n")
+        out.write(f"{pad}}}\n")
+
+    roots = children.get(-1, [])
+    if len(roots) != 1:
+        raise ValueError(f"clip: a BVH needs exactly one root joint, found {len(roots)}")
+    if any(children.get(j, []) and min(children[j]) <= j for j in range(len(clip.parents))):
+        raise ValueError("clip: parents must come before their children")
+    expected = sum(len(c) for c in clip.channels)
+    if clip.motion.ndim != 2 or clip.motion.shape[1] != expected:
+        raise ValueError(f"clip: motion must be (frames, {expected}), got {clip.motion.shape}")
+    out.write("HIERARCHY\n")
+    emit(roots[0], 0)
+    out.write(f"MOTION\nFrames: {clip.n_frames}\nFrame Time: {clip.frame_time:.7f}\n")
+    np.savetxt(out, clip.motion, fmt=fmt, delimiter=" ")
+    Path(path).write_text(out.getvalue(), encoding="utf-8")

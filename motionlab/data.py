@@ -1,0 +1,353 @@
+"""Data sets: load motion capture, resample, cut windows, split, augment, normalise.
+
+The path from a folder of files to batches a model can train on::
+
+    clips = load("../shared/mocap/cmu", fps=20)          # list of Clip, world positions
+    data = prepare(clips, window_s=4.0)                   # split by clip, augment, normalise
+    batch = next(iter(torch.utils.data.DataLoader(data.train, batch_size=32)))
+    batch.shape                                           # (32, 80, 66), normalised features
+
+Every clip becomes world positions of the 21-joint locomotion skeleton in metres (y up,
+floor at y = 0) first; :mod:`motionlab.representation` turns those into features.
+"""
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Iterable, Sequence
+
+import numpy as np
+import torch
+
+from . import bvh as bvh_io
+from .filters import resample
+from .representation import (FACING_SMOOTHING_S, mirror_features, reverse_features,
+                             to_features)
+from .skeleton import CMU_JOINTS, CMU_TO_LOCOMOTION, LOCOMOTION
+
+CMU_UNIT_M = 0.0254 / 0.45
+"""Metres per CMU length unit (the ASF ``length 0.45``: 1 unit = 1/0.45 inch = 5.644 cm)."""
+
+LOCOMOTION_FROM_CMU = tuple(CMU_JOINTS[i] for i in CMU_TO_LOCOMOTION)
+
+
+@dataclass
+class Clip:
+    """One motion clip as world positions.
+
+    Attributes:
+        name: short name, e.g. ``"16_15"`` for ``16_15.bvh``.
+        positions: ``(frames, 21, 3)`` locomotion-skeleton joint positions, metres, y up.
+        fps: frames per second.
+        source: where it came from (a file path, or a generator name).
+    """
+
+    name: str
+    positions: np.ndarray
+    fps: float
+    source: str = ""
+
+    @property
+    def n_frames(self) -> int:
+        return self.positions.shape[0]
+
+    @property
+    def duration_s(self) -> float:
+        return self.n_frames / self.fps
+
+    def features(self, facing_smoothing_s: float = FACING_SMOOTHING_S) -> np.ndarray:
+        """The clip in the shared representation, ``(frames, 66)``."""
+        return to_features(self.positions, self.fps, facing_smoothing_s)
+
+    def resampled(self, fps: float) -> "Clip":
+        """This clip at another frame rate (anti-aliased, see :func:`filters.resample`)."""
+        if fps == self.fps:
+            return self
+        return Clip(self.name, resample(self.positions, self.fps, fps), fps, self.source)
+
+
+def has_tpose_frame(clip: bvh_io.BVH) -> bool:
+    """Whether frame 0 is a hand-made T-pose, as cgspeed BVH files prepend.
+
+    That frame's rotations are whole degrees (mostly zero), unlike captured frames.
+    """
+    if clip.n_frames < 2:
+        return False
+    rotation_columns = [column.start + k
+                        for column, names in zip(clip.channel_columns(), clip.channels)
+                        for k, name in enumerate(names) if name.endswith("rotation")]
+    first = clip.motion[0, rotation_columns]
+    return bool(np.all(first == np.round(first)) and np.mean(first == 0) > 0.5)
+
+
+def load_bvh(path: str | Path, fps: float | None = None, unit_m: float = CMU_UNIT_M,
+             drop_tpose: bool | str = "auto") -> Clip:
+    """Load a BVH file with CMU joint names as a 21-joint :class:`Clip`.
+
+    Args:
+        path: the ``.bvh`` file.
+        fps: resample to this frame rate (default: keep the file's).
+        unit_m: metres per file length unit (default: CMU units).
+        drop_tpose: drop frame 0 if it is a cgspeed T-pose; ``"auto"`` detects it
+            (:func:`has_tpose_frame`), ``True``/``False`` force it.
+    """
+    path = Path(path)
+    clip = bvh_io.read(path)
+    missing = [n for n in LOCOMOTION_FROM_CMU if n not in clip.joint_names]
+    if missing:
+        raise ValueError(f"{path}: not a CMU-style skeleton, missing joints {', '.join(missing)}")
+    drop = has_tpose_frame(clip) if drop_tpose == "auto" else bool(drop_tpose)
+    if drop:
+        clip.motion = clip.motion[1:]
+    if clip.n_frames < 2:
+        raise ValueError(f"{path}: needs at least 2 frames of motion, has {clip.n_frames}")
+    index = [clip.joint_names.index(n) for n in LOCOMOTION_FROM_CMU]
+    positions = clip.world_positions()[:, index] * unit_m
+    result = Clip(path.stem, positions, clip.fps, str(path))
+    return result.resampled(fps) if fps is not None else result
+
+
+def load(source: str | Path | Iterable[str | Path], fps: float = 20.0,
+         pattern: str = "*.bvh") -> list[Clip]:
+    """Load clips from a folder of BVH files, one file, or a list of files.
+
+    Clips come back sorted by name, resampled to ``fps``.
+    """
+    if isinstance(source, (str, Path)):
+        path = Path(source)
+        if path.is_dir():
+            files = sorted(path.glob(pattern))
+            if not files:
+                raise ValueError(f"{path}: no files matching {pattern!r}")
+        elif path.is_file():
+            files = [path]
+        else:
+            raise ValueError(f"source: {str(source)!r} is neither a folder nor a file")
+    else:
+        files = sorted(Path(f) for f in source)
+    return [load_bvh(f, fps=fps) for f in files]
+
+
+def split_clips(clips: Sequence[Clip], fractions: tuple[float, float, float] = (0.8, 0.1, 0.1),
+                seed: int = 0) -> dict[str, list[Clip]]:
+    """Split clips (never windows) into ``train``/``val``/``test`` by ``fractions``.
+
+    A shuffled, seeded assignment; every split with a non-zero fraction gets at least one
+    clip when there are enough clips. Splitting by clip keeps overlapping windows of one
+    take out of both training and evaluation.
+    """
+    fractions = tuple(float(f) for f in fractions)
+    if len(fractions) != 3 or min(fractions) < 0 or abs(sum(fractions) - 1) > 1e-6:
+        raise ValueError(f"fractions: expected three non-negative numbers summing to 1, got {fractions}")
+    n = len(clips)
+    order = np.random.default_rng(seed).permutation(n)
+    n_val = int(round(fractions[1] * n))
+    n_test = int(round(fractions[2] * n))
+    if n >= 3:
+        n_val = max(n_val, 1 if fractions[1] > 0 else 0)
+        n_test = max(n_test, 1 if fractions[2] > 0 else 0)
+    n_train = n - n_val - n_test
+    if n_train < 1:
+        raise ValueError(f"clips: {n} clips are too few to split by {fractions}")
+    pick = lambda idx: [clips[i] for i in sorted(idx)]  # noqa: E731
+    return {"train": pick(order[:n_train]), "val": pick(order[n_train:n_train + n_val]),
+            "test": pick(order[n_train + n_val:])}
+
+
+def cut_windows(features: np.ndarray, length: int, stride: int) -> np.ndarray:
+    """Cut ``(frames, D)`` into overlapping windows ``(n, length, D)``.
+
+    Windows start every ``stride`` frames; a tail shorter than ``length`` is left out. A
+    clip shorter than ``length`` gives ``(0, length, D)``.
+    """
+    if length < 1 or stride < 1:
+        raise ValueError(f"length and stride must be >= 1, got length={length}, stride={stride}")
+    features = np.asarray(features)
+    if features.shape[0] < length:
+        return np.zeros((0, length) + features.shape[1:], dtype=features.dtype)
+    view = np.lib.stride_tricks.sliding_window_view(features, length, axis=0)[::stride]
+    return np.moveaxis(view, -1, 1).copy()
+
+
+def augment(features: np.ndarray, fps: float, kinds: Sequence[str] = ("mirror", "reverse")) -> list[np.ndarray]:
+    """The clip and its augmented copies (MoGlow §5.1): mirrored, time-reversed, or both.
+
+    Returns ``[original, ...]``: 2 copies for one kind, 4 for ``("mirror", "reverse")``.
+    """
+    unknown = set(kinds) - {"mirror", "reverse"}
+    if unknown:
+        raise ValueError(f"augment: unknown kinds {sorted(unknown)}; use 'mirror' and/or 'reverse'")
+    copies = [np.asarray(features)]
+    if "mirror" in kinds:
+        copies += [mirror_features(c) for c in copies]
+    if "reverse" in kinds:
+        copies += [reverse_features(c, fps) for c in copies]
+    return copies
+
+
+class Normalizer:
+    """Per-feature standardisation ``(x - mean) / std``, fitted on training data only.
+
+    Features that never vary (such as the hips' root-local ``x`` and ``z``, always 0) get
+    ``std = 1`` so nothing is divided by zero. Works on numpy arrays and torch tensors of
+    shape ``(..., D)``.
+    """
+
+    def __init__(self, mean: np.ndarray, std: np.ndarray):
+        mean, std = np.asarray(mean, dtype=np.float64), np.asarray(std, dtype=np.float64)
+        if mean.shape != std.shape or mean.ndim != 1:
+            raise ValueError(f"mean and std must be (D,) arrays, got {mean.shape} and {std.shape}")
+        if not (np.isfinite(mean).all() and np.isfinite(std).all() and (std > 0).all()):
+            raise ValueError("std must be positive and mean and std finite")
+        self.mean, self.std = mean, std
+
+    @classmethod
+    def fit(cls, data: np.ndarray, min_std: float = 1e-4) -> "Normalizer":
+        """Fit on ``data`` ``(..., D)``; a std below ``min_std`` counts as constant."""
+        data = np.asarray(data, dtype=np.float64).reshape(-1, np.shape(data)[-1])
+        if len(data) == 0:
+            raise ValueError("data: cannot fit a Normalizer on no frames")
+        std = data.std(axis=0)
+        return cls(data.mean(axis=0), np.where(std < min_std, 1.0, std))
+
+    def _cast(self, x, value: np.ndarray):
+        if isinstance(x, torch.Tensor):
+            return torch.as_tensor(value, dtype=x.dtype, device=x.device)
+        return value
+
+    def _check(self, x) -> None:
+        if x.shape[-1] != len(self.mean):
+            raise ValueError(f"x: expected last dimension {len(self.mean)}, got shape {tuple(x.shape)}")
+
+    def normalize(self, x):
+        self._check(x)
+        return (x - self._cast(x, self.mean)) / self._cast(x, self.std)
+
+    def denormalize(self, x):
+        self._check(x)
+        return x * self._cast(x, self.std) + self._cast(x, self.mean)
+
+    def state_dict(self) -> dict[str, list[float]]:
+        return {"mean": self.mean.tolist(), "std": self.std.tolist()}
+
+    @classmethod
+    def from_state_dict(cls, state: dict) -> "Normalizer":
+        try:
+            return cls(np.asarray(state["mean"]), np.asarray(state["std"]))
+        except KeyError as err:
+            raise ValueError(f"state: missing {err.args[0]!r}") from None
+
+    def save(self, path: str | Path) -> None:
+        Path(path).write_text(json.dumps(self.state_dict()))
+
+    @classmethod
+    def load(cls, path: str | Path) -> "Normalizer":
+        try:
+            return cls.from_state_dict(json.loads(Path(path).read_text()))
+        except (json.JSONDecodeError, OSError) as err:
+            raise ValueError(f"{path}: not a saved Normalizer ({err})") from None
+
+
+class MotionDataset(torch.utils.data.Dataset):
+    """Windows of normalised features as a torch data set; items are ``(frames, D)`` float32."""
+
+    def __init__(self, windows: np.ndarray):
+        self.windows = torch.as_tensor(np.asarray(windows), dtype=torch.float32)
+
+    def __len__(self) -> int:
+        return len(self.windows)
+
+    def __getitem__(self, i: int) -> torch.Tensor:
+        return self.windows[i]
+
+
+@dataclass
+class MotionData:
+    """Everything a model trains on: normalised window data sets and how they were made.
+
+    Attributes:
+        train, val, test: :class:`MotionDataset` of ``(window_frames, 66)`` items.
+        normalizer: fitted on the (augmented) training windows.
+        clips: the clips of each split, by split name.
+        description: the settings that made the data, for checkpoints and reports.
+    """
+
+    train: MotionDataset
+    val: MotionDataset
+    test: MotionDataset
+    normalizer: Normalizer
+    clips: dict[str, list[Clip]]
+    description: dict = field(default_factory=dict)
+
+    @property
+    def fps(self) -> float:
+        return self.description["fps"]
+
+    def summary(self) -> str:
+        """A few lines that say what the data is."""
+        d = self.description
+        rows = [f"source: {d['source']}, {d['fps']:g} fps, windows of {d['window_frames']} frames "
+                f"(stride {d['stride_frames']}), augmentation: {', '.join(d['augment']) or 'none'}"]
+        for split in ("train", "val", "test"):
+            rows.append(f"{split:>5}: {len(d['clips'][split]):3d} clips, "
+                        f"{len(getattr(self, split)):5d} windows")
+        if d["dropped_short"]:
+            rows.append(f"dropped (shorter than a window): {', '.join(d['dropped_short'])}")
+        return "\n".join(rows)
+
+
+def prepare(clips: Sequence[Clip], window_s: float = 4.0, stride_s: float | None = None,
+            fractions: tuple[float, float, float] = (0.8, 0.1, 0.1),
+            augment_with: Sequence[str] = ("mirror", "reverse"), seed: int = 0,
+            short_clips: str = "drop", source: str = "",
+            facing_smoothing_s: float = FACING_SMOOTHING_S) -> MotionData:
+    """Turn clips into normalised train/validation/test window data sets.
+
+    Clips are split by clip (:func:`split_clips`), converted to features, augmented
+    (training split only), cut into windows of ``window_s`` seconds every ``stride_s``
+    seconds (default half a window), and normalised with statistics of the training
+    windows. A clip shorter than one window is dropped and listed in
+    ``description["dropped_short"]`` (``short_clips="drop"``) or raises ``ValueError``
+    (``short_clips="error"``).
+    """
+    if not clips:
+        raise ValueError("clips: no clips to prepare")
+    if short_clips not in ("drop", "error"):
+        raise ValueError(f"short_clips: expected 'drop' or 'error', got {short_clips!r}")
+    fps_values = {c.fps for c in clips}
+    if len(fps_values) != 1:
+        raise ValueError(f"clips: all clips need one frame rate, got {sorted(fps_values)}; "
+                         "resample them first (Clip.resampled)")
+    fps = fps_values.pop()
+    length = int(round(window_s * fps))
+    stride = int(round((stride_s if stride_s is not None else window_s / 2) * fps))
+    short = [c.name for c in clips if c.n_frames < length]
+    if short and short_clips == "error":
+        raise ValueError(f"clips shorter than a {length}-frame window: {', '.join(short)}")
+    usable = [c for c in clips if c.n_frames >= length]
+    if not usable:
+        raise ValueError(f"clips: none is as long as one {length}-frame window")
+    splits = split_clips(usable, fractions, seed)
+
+    windows = {}
+    for split, members in splits.items():
+        per_clip = []
+        for clip in members:
+            feats = clip.features(facing_smoothing_s)
+            copies = augment(feats, fps, augment_with) if split == "train" else [feats]
+            per_clip += [cut_windows(c, length, stride) for c in copies]
+        windows[split] = (np.concatenate(per_clip) if per_clip
+                          else np.zeros((0, length, feats.shape[1])))
+    normalizer = Normalizer.fit(windows["train"])
+    datasets = {s: MotionDataset(normalizer.normalize(w)) for s, w in windows.items()}
+    description = {
+        "source": source or (str(Path(clips[0].source).parent) if clips[0].source else "clips"),
+        "fps": fps, "window_frames": length, "stride_frames": stride,
+        "augment": list(augment_with), "seed": seed, "fractions": list(fractions),
+        "facing_smoothing_s": facing_smoothing_s, "skeleton": list(LOCOMOTION.names),
+        "clips": {s: [c.name for c in m] for s, m in splits.items()},
+        "dropped_short": short,
+    }
+    return MotionData(datasets["train"], datasets["val"], datasets["test"], normalizer,
+                      splits, description)

@@ -1,0 +1,108 @@
+"""Measures of motion quality, shared by every notebook and benchmark.
+
+All take numpy arrays of joint positions in metres, ``(frames, joints, 3)`` (or with
+leading batch dimensions where stated), y up, floor at y = 0, and return metres or
+metres per second. Multiply by 100 for the centimetres the papers report.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .representation import N_POSE, POSE
+from .skeleton import FEET, LOCOMOTION, Skeleton
+
+
+def _check_same(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    a, b = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
+    if a.shape != b.shape or a.shape[-1] != 3:
+        raise ValueError(f"expected two (..., joints, 3) arrays of one shape, got {a.shape} and {b.shape}")
+    return a, b
+
+
+def pose_error(pred_features: np.ndarray, true_features: np.ndarray) -> float:
+    """Mean per-joint position error in the root frame (Habibie's *pose error*), metres.
+
+    Takes features ``(..., frames, 66)`` (or just the 63 pose values): the translation and
+    rotation of the character are ignored, only the body pose counts.
+    """
+    p = np.asarray(pred_features)[..., POSE]
+    t = np.asarray(true_features)[..., POSE]
+    if p.shape != t.shape or p.shape[-1] != N_POSE:
+        raise ValueError(f"expected features (..., {N_POSE}+), got {np.shape(pred_features)} "
+                         f"and {np.shape(true_features)}")
+    shape = p.shape[:-1] + (N_POSE // 3, 3)
+    return float(np.linalg.norm(p.reshape(shape) - t.reshape(shape), axis=-1).mean())
+
+
+def motion_error(pred_positions: np.ndarray, true_positions: np.ndarray) -> float:
+    """Mean per-joint position error in the world (Habibie's *motion error*), metres.
+
+    Takes world positions ``(..., frames, joints, 3)``: drift of the trajectory counts.
+    """
+    p, t = _check_same(pred_positions, true_positions)
+    return float(np.linalg.norm(p - t, axis=-1).mean())
+
+
+def foot_skating(positions: np.ndarray, fps: float, feet: tuple[int, ...] = FEET,
+                 contact_height_m: float | tuple[float, ...] = (0.10, 0.05, 0.10, 0.05)) -> float:
+    """How much the feet slide while on the floor, m/s (lower is better).
+
+    The measure of Zhang et al. (MANN, 2018), per foot joint: its horizontal speed
+    ``v_t = |p_xz(t+1) - p_xz(t)| * fps`` weighted by ``w = clip(2 - 2**(h / H), 0, 1)``,
+    where ``h`` is the joint's height above the floor (mean of frames ``t`` and ``t + 1``)
+    and ``H`` its contact height: a joint on the floor (``h = 0``) counts fully, one at
+    ``H`` or above not at all. The result is the mean of ``w * v`` over frames and foot
+    joints. Defaults: the ankles (``H = 10 cm``) and toes (``H = 5 cm``) of the
+    locomotion skeleton, whose joint centres sit a few centimetres above the floor.
+
+    Args:
+        positions: ``(..., frames, joints, 3)``, metres.
+        fps: frames per second.
+        feet: joint indices of the foot joints.
+        contact_height_m: ``H`` per foot joint, or one value for all.
+    """
+    positions = np.asarray(positions, dtype=np.float64)
+    if positions.ndim < 3 or positions.shape[-1] != 3 or positions.shape[-3] < 2:
+        raise ValueError(f"positions: expected (..., frames >= 2, joints, 3), got {positions.shape}")
+    feet_pos = positions[..., list(feet), :]
+    H = np.broadcast_to(np.asarray(contact_height_m, dtype=np.float64), (len(feet),))
+    height = 0.5 * (feet_pos[..., 1:, :, 1] + feet_pos[..., :-1, :, 1])
+    speed = np.linalg.norm(np.diff(feet_pos[..., [0, 2]], axis=-3), axis=-1) * fps
+    weight = np.clip(2 - 2 ** (np.maximum(height, 0) / H), 0, 1)
+    return float((weight * speed).mean())
+
+
+def bone_length_drift(positions: np.ndarray, skeleton: Skeleton = LOCOMOTION) -> float:
+    """How much bone lengths change over time: mean over bones of ``std / mean`` length.
+
+    A rigid skeleton gives 0; ``0.01`` means bones stretch by about 1 % on average.
+    Takes ``(frames, joints, 3)``, or ``(clips, frames, joints, 3)`` (averaged over clips).
+    """
+    positions = np.asarray(positions, dtype=np.float64)
+    if positions.ndim == 3:
+        positions = positions[None]
+    if positions.ndim != 4:
+        raise ValueError(f"positions: expected (frames, joints, 3) or (clips, frames, joints, 3), "
+                         f"got {positions.shape}")
+    lengths = skeleton.bone_lengths(positions)                 # (clips, frames, bones)
+    return float((lengths.std(axis=1) / lengths.mean(axis=1)).mean())
+
+
+def diversity(samples: np.ndarray) -> np.ndarray:
+    """Diversity over time (Chen et al. 2020, §6.3), metres per frame, ``(frames,)``.
+
+    For ``samples`` ``(n_samples, frames, joints, 3)`` drawn from one starting point, the
+    mean over samples and joints of each joint's distance to the samples' mean pose at
+    that frame. Zero where all samples agree; it grows as they spread apart.
+    """
+    samples = np.asarray(samples, dtype=np.float64)
+    if samples.ndim != 4 or samples.shape[-1] != 3 or samples.shape[0] < 2:
+        raise ValueError(f"samples: expected (n_samples >= 2, frames, joints, 3), got {samples.shape}")
+    mean = samples.mean(axis=0, keepdims=True)
+    return np.linalg.norm(samples - mean, axis=-1).mean(axis=(0, 2))
+
+
+def summarize(positions: np.ndarray, fps: float, skeleton: Skeleton = LOCOMOTION) -> dict[str, float]:
+    """Foot skating (cm/s) and bone-length drift (%) of one clip, for tables."""
+    return {"foot skating (cm/s)": 100 * foot_skating(positions, fps),
+            "bone-length drift (%)": 100 * bone_length_drift(positions, skeleton)}

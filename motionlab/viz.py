@@ -1,0 +1,221 @@
+"""Pictures of motion: stick figures, top-down trajectories, animations.
+
+Motion data is ``y`` up; matplotlib's 3-D axes are ``z`` up. Every function here draws
+world ``(x, y, z)`` at plot coordinates ``(z, x, y)``: a cyclic swap of axes, so the
+picture is rotated, never mirrored (a left foot stays a left foot). Left-side bones are
+drawn in blue, right-side bones in red, the spine and head in black.
+
+Animations come back as matplotlib ``FuncAnimation`` objects: :func:`to_html` turns one
+into HTML that plays in a notebook without ffmpeg, :func:`save_gif` writes a GIF.
+"""
+from __future__ import annotations
+
+from typing import Sequence
+
+import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
+from matplotlib import animation
+
+from .representation import root_trajectory
+from .skeleton import LOCOMOTION, Skeleton
+
+LEFT_COLOR, RIGHT_COLOR, CENTER_COLOR = "tab:blue", "tab:red", "black"
+
+
+def _plot_xyz(points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """World ``(..., 3)`` -> matplotlib 3-D coordinates (x_plot, y_plot, z_plot) = (z, x, y)."""
+    return points[..., 2], points[..., 0], points[..., 1]
+
+
+def bone_colors(skeleton: Skeleton = LOCOMOTION) -> list[str]:
+    """One colour per bone of ``skeleton.bones``: blue left, red right, black centre."""
+    colors = []
+    for _, child in skeleton.bones:
+        name = skeleton.names[child]
+        colors.append(LEFT_COLOR if name.startswith("Left") else
+                      RIGHT_COLOR if name.startswith("Right") else CENTER_COLOR)
+    return colors
+
+
+def _check_poses(poses: np.ndarray, skeleton: Skeleton) -> np.ndarray:
+    poses = np.asarray(poses, dtype=np.float64)
+    if poses.ndim == 2:
+        poses = poses[None]
+    if poses.ndim != 3 or poses.shape[1:] != (skeleton.n_joints, 3):
+        raise ValueError(f"poses: expected ({skeleton.n_joints}, 3) or (n, {skeleton.n_joints}, 3), "
+                         f"got {np.shape(poses)}")
+    return poses
+
+
+def _equal_3d_limits(ax, center: np.ndarray, radius: float, height: float) -> None:
+    """World-space box around ``center`` (x, z) with equal scales; floor at y = 0."""
+    height = max(height, 1.0)
+    ax.set_xlim(center[1] - radius, center[1] + radius)     # plot x = world z
+    ax.set_ylim(center[0] - radius, center[0] + radius)     # plot y = world x
+    ax.set_zlim(0, height)
+    ax.set_box_aspect((2 * radius, 2 * radius, height), zoom=1.1)
+
+
+def _floor_grid(ax, center: np.ndarray, radius: float, spacing: float = 0.5) -> list:
+    lines = []
+    lo_z, hi_z = center[1] - radius, center[1] + radius
+    lo_x, hi_x = center[0] - radius, center[0] + radius
+    for z in np.arange(np.ceil(lo_z / spacing), np.floor(hi_z / spacing) + 1) * spacing:
+        lines += ax.plot([z, z], [lo_x, hi_x], [0, 0], color="0.85", lw=0.6, zorder=0)
+    for x in np.arange(np.ceil(lo_x / spacing), np.floor(hi_x / spacing) + 1) * spacing:
+        lines += ax.plot([lo_z, hi_z], [x, x], [0, 0], color="0.85", lw=0.6, zorder=0)
+    return lines
+
+
+def _style_3d(ax, title: str | None) -> None:
+    ax.set_xlabel("z (m)")
+    ax.set_ylabel("x (m)")
+    ax.set_zlabel("y (m)")
+    ax.view_init(elev=12, azim=-35)
+    if title:
+        ax.set_title(title)
+
+
+def plot_skeleton(poses: np.ndarray, ax=None, skeleton: Skeleton = LOCOMOTION,
+                  title: str | None = None, alpha: Sequence[float] | None = None):
+    """Draw one pose ``(joints, 3)`` or several ``(n, joints, 3)`` (metres) on a floor grid.
+
+    Several poses share one box with equal axes, e.g. every 10th frame of a walk to show
+    its path. ``alpha`` gives each pose's opacity (default: later poses darker).
+    Returns the axes.
+    """
+    poses = _check_poses(poses, skeleton)
+    if ax is None:
+        ax = plt.figure(figsize=(5, 5)).add_subplot(projection="3d")
+    if alpha is None:
+        alpha = np.linspace(0.35, 1.0, len(poses)) if len(poses) > 1 else [1.0]
+    center = 0.5 * (poses[..., [0, 2]].min(axis=(0, 1)) + poses[..., [0, 2]].max(axis=(0, 1)))
+    radius = 0.5 * max(np.ptp(poses[..., 0]), np.ptp(poses[..., 2]), 1.0) + 0.3
+    _floor_grid(ax, center, radius)
+    colors = bone_colors(skeleton)
+    for pose, a in zip(poses, alpha):
+        for (parent, child), color in zip(skeleton.bones, colors):
+            ax.plot(*_plot_xyz(pose[[parent, child]]), color=color, lw=2, alpha=a)
+    _equal_3d_limits(ax, center, radius, poses[..., 1].max() + 0.1)
+    _style_3d(ax, title)
+    return ax
+
+
+def plot_trajectory(positions: np.ndarray, fps: float, ax=None, arrow_every_s: float = 0.5,
+                    skeleton: Skeleton = LOCOMOTION, label: str | None = None, color: str = "tab:green"):
+    """Top-down view of a clip ``(frames, joints, 3)``: the root's path and facing arrows.
+
+    Seen from above with world ``z`` to the right and world ``x`` up (the un-mirrored view
+    from ``+y``). A dot marks the start; arrows show the smoothed facing direction every
+    ``arrow_every_s`` seconds. Returns the axes.
+    """
+    if ax is None:
+        ax = plt.figure(figsize=(5, 5)).add_subplot()
+    root = root_trajectory(positions, fps, skeleton=skeleton)
+    x, z, heading = root[:, 0], root[:, 1], root[:, 2]
+    ax.plot(z, x, color=color, label=label)
+    ax.plot(z[:1], x[:1], "o", color=color)
+    step = max(1, int(round(arrow_every_s * fps)))
+    length = 0.1 * max(np.ptp(z), np.ptp(x), 1.0)
+    ax.quiver(z[::step], x[::step], length * np.cos(heading[::step]), length * np.sin(heading[::step]),
+              color=color, angles="xy", scale_units="xy", scale=1, width=0.005)
+    ax.set_xlabel("z (m)")
+    ax.set_ylabel("x (m)")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.grid(True, color="0.9")
+    if label:
+        ax.legend()
+    return ax
+
+
+def animate(clips: np.ndarray | Sequence[np.ndarray], fps: float, titles: Sequence[str] | None = None,
+            skeleton: Skeleton = LOCOMOTION, follow: bool = True, radius: float = 1.0,
+            step: int = 1, max_frames: int | None = None, size: float = 3.5) -> animation.FuncAnimation:
+    """Animate one clip ``(frames, joints, 3)`` or several side by side (metres).
+
+    Args:
+        clips: one array or a list of arrays; clips of different lengths hold their last
+            frame once they end.
+        fps: frames per second of the clips.
+        titles: one title per clip.
+        follow: keep each character centred (a camera that tracks the hips); otherwise
+            the view covers the whole path.
+        radius: half-width of the view around the character when following, metres.
+        step: show every ``step``-th frame (keeps notebooks small).
+        max_frames: stop after this many frames of the clip (before ``step``).
+        size: inches per panel.
+    """
+    if isinstance(clips, np.ndarray) and clips.ndim == 3:
+        clips = [clips]
+    clips = [_check_poses(c, skeleton) for c in clips]
+    if titles is not None and len(titles) != len(clips):
+        raise ValueError(f"titles: expected {len(clips)} titles, got {len(titles)}")
+    n_frames = max(len(c) for c in clips)
+    if max_frames is not None:
+        n_frames = min(n_frames, max_frames)
+    frames = list(range(0, n_frames, max(1, int(step))))
+    fig = plt.figure(figsize=(size * len(clips), size))
+    colors = bone_colors(skeleton)
+    panels = []
+    for i, clip in enumerate(clips):
+        ax = fig.add_subplot(1, len(clips), i + 1, projection="3d")
+        _style_3d(ax, titles[i] if titles else None)
+        height = clip[..., 1].max() + 0.1
+        if not follow:
+            center = 0.5 * (clip[:, 0, [0, 2]].min(0) + clip[:, 0, [0, 2]].max(0))
+            r = 0.5 * max(np.ptp(clip[:, 0, 0]), np.ptp(clip[:, 0, 2])) + 1.0
+            _equal_3d_limits(ax, center, r, height)
+            _floor_grid(ax, center, r)
+        lines = [ax.plot([], [], [], color=c, lw=2)[0] for c in colors]
+        trail = ax.plot([], [], [], color="tab:green", lw=1)[0]
+        panels.append({"ax": ax, "clip": clip, "lines": lines, "trail": trail, "grid": [],
+                       "height": height})
+    fig.tight_layout()
+
+    def draw(frame: int):
+        artists = []
+        for p in panels:
+            clip, ax = p["clip"], p["ax"]
+            t = min(frame, len(clip) - 1)
+            pose = clip[t]
+            if follow:
+                for line in p["grid"]:
+                    line.remove()
+                center = pose[0, [0, 2]]
+                p["grid"] = _floor_grid(ax, center, radius)
+                _equal_3d_limits(ax, center, radius, p["height"])
+            for (parent, child), line in zip(skeleton.bones, p["lines"]):
+                line.set_data_3d(*_plot_xyz(pose[[parent, child]]))
+            path = clip[: t + 1, 0] * np.array([1.0, 0.0, 1.0])
+            p["trail"].set_data_3d(*_plot_xyz(path))
+            artists += p["lines"] + [p["trail"]]
+        return artists
+
+    anim = animation.FuncAnimation(fig, draw, frames=frames, interval=1000 * step / fps, blit=False)
+    plt.close(fig)
+    return anim
+
+
+def to_html(anim: animation.FuncAnimation) -> str:
+    """HTML with a play bar (matplotlib's ``to_jshtml``): works in notebooks, no ffmpeg."""
+    with matplotlib.rc_context({"animation.embed_limit": 50.0}):
+        return anim.to_jshtml(default_mode="loop")
+
+
+def show(anim: animation.FuncAnimation):
+    """Display an animation in a notebook cell (an ``IPython.display.HTML`` object)."""
+    from IPython.display import HTML
+    return HTML(to_html(anim))
+
+
+def save_gif(anim: animation.FuncAnimation, path: str, fps: float | None = None, dpi: int = 72) -> None:
+    """Save an animation as a GIF with Pillow (ships with matplotlib); no ffmpeg needed."""
+    interval_fps = 1000.0 / anim._interval if fps is None else fps
+    anim.save(path, writer=animation.PillowWriter(fps=interval_fps), dpi=dpi)
+
+
+def save_frame(anim: animation.FuncAnimation, frame: int, path: str, dpi: int = 80) -> None:
+    """Render one frame of an animation to a PNG (to look at it without a notebook)."""
+    anim._func(frame)
+    anim._fig.savefig(path, dpi=dpi)

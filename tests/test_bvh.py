@@ -1,0 +1,126 @@
+"""BVH reading, writing and forward kinematics on small hand-made files."""
+import numpy as np
+import pytest
+
+from motionlab import bvh
+
+TWO_BONE = """HIERARCHY
+ROOT Root
+{
+\tOFFSET 0 0 0
+\tCHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation
+\tJOINT Upper
+\t{
+\t\tOFFSET 0 1 0
+\t\tCHANNELS 3 Xrotation Yrotation Zrotation
+\t\tJOINT Lower
+\t\t{
+\t\t\tOFFSET 0 2 0
+\t\t\tCHANNELS 4 Yposition Zrotation Yrotation Xrotation
+\t\t\tEnd Site
+\t\t\t{
+\t\t\t\tOFFSET 0 0 3
+\t\t\t}
+\t\t}
+\t}
+}
+MOTION
+Frames: 3
+Frame Time: .05
+0 0 0 0 0 0 0 0 0 5 0 0 0
+1 2 3 90 0 0 0 0 0 5 0 0 0
+0 0 0 0 0 0 0 0 90 7 0 90 0
+"""
+
+
+def write_text(tmp_path, text, name="clip.bvh", newline="\n"):
+    path = tmp_path / name
+    path.write_bytes(text.replace("\n", newline).encode())
+    return path
+
+
+def test_reads_hierarchy_channels_and_header(tmp_path):
+    clip = bvh.read(write_text(tmp_path, TWO_BONE))
+    assert clip.joint_names == ["Root", "Upper", "Lower"]
+    assert list(clip.parents) == [-1, 0, 1]
+    assert clip.channels[2] == ("Yposition", "Zrotation", "Yrotation", "Xrotation")
+    assert clip.frame_time == pytest.approx(0.05) and clip.fps == pytest.approx(20)
+    assert clip.motion.shape == (3, 13)
+    assert np.allclose(clip.end_sites[2], [0, 0, 3])
+
+
+def test_forward_kinematics_by_hand(tmp_path):
+    pos = bvh.read(write_text(tmp_path, TWO_BONE)).world_positions(include_end_sites=True)
+    assert pos.shape == (3, 4, 3)
+    # frame 0: straight up; Lower's Yposition channel (5) replaces its offset's y (2)
+    assert np.allclose(pos[0], [[0, 0, 0], [0, 1, 0], [0, 6, 0], [0, 6, 3]])
+    # frame 1: root moved to (1, 2, 3) and rotated 90 deg about z: +y turns into -x
+    assert np.allclose(pos[1], [[1, 2, 3], [0, 2, 3], [-5, 2, 3], [-5, 2, 6]])
+    # frame 2: Upper rotates 90 deg about z (its third channel), Lower 90 about y:
+    # Lower's end site offset (0, 0, 3) -> Ry(90) -> (3, 0, 0) -> Rz(90) -> (0, 3, 0)
+    assert np.allclose(pos[2], [[0, 0, 0], [0, 1, 0], [-7, 1, 0], [-7, 4, 0]])
+
+
+def test_channel_order_is_applied_in_file_order():
+    rz_then_rx = bvh.axis_rotation("Z", 90) @ bvh.axis_rotation("X", 90)
+    rx_then_rz = bvh.axis_rotation("X", 90) @ bvh.axis_rotation("Z", 90)
+    assert not np.allclose(rz_then_rx, rx_then_rz)
+    assert np.allclose(bvh.axis_rotation("Z", 90) @ [1, 0, 0], [0, 1, 0])
+    assert np.allclose(bvh.axis_rotation("X", 90) @ [0, 1, 0], [0, 0, 1])
+    assert np.allclose(bvh.axis_rotation("Y", 90) @ [0, 0, 1], [1, 0, 0])
+
+
+@pytest.mark.parametrize("newline", ["\n", "\r\n"])
+def test_line_endings_and_frame_time_forms(tmp_path, newline):
+    text = TWO_BONE.replace("Frame Time: .05", "Frame Time: 0.05")
+    clip = bvh.read(write_text(tmp_path, text, newline=newline))
+    assert clip.fps == pytest.approx(20) and clip.n_frames == 3
+    mixed = TWO_BONE.replace("HIERARCHY\n", "HIERARCHY\r\n").replace("MOTION\n", "MOTION\r\n")
+    assert bvh.read(write_text(tmp_path, mixed, "mixed.bvh")).n_frames == 3
+
+
+def test_write_read_round_trip(tmp_path):
+    clip = bvh.read(write_text(tmp_path, TWO_BONE))
+    rng = np.random.default_rng(1)
+    clip.motion = rng.uniform(-180, 180, clip.motion.shape)
+    clip.offsets = rng.normal(size=clip.offsets.shape)
+    out = tmp_path / "out.bvh"
+    bvh.write(out, clip)
+    again = bvh.read(out)
+    assert again.joint_names == clip.joint_names and again.channels == clip.channels
+    assert np.array_equal(again.parents, clip.parents)
+    assert np.abs(again.motion - clip.motion).max() < 1e-4
+    assert np.abs(again.offsets - clip.offsets).max() < 1e-4
+    assert np.allclose(again.end_sites[2], clip.end_sites[2])
+    assert np.abs(again.world_positions() - clip.world_positions()).max() < 1e-3
+    assert again.frame_time == pytest.approx(clip.frame_time)
+
+
+@pytest.mark.parametrize("edit, message", [
+    (lambda t: t.replace("MOTION", "MOTON"), r"clip.bvh:\d+: no MOTION section"),
+    (lambda t: t.replace("0 0 0 0 0 0 0 0 90 7 0 90 0", "0 0 0 0 0 0 0 0 90 7 0 90"),
+     r"clip.bvh:26: expected 13 values, found 12"),
+    (lambda t: t.replace("1 2 3 90", "1 2 x 90"), r"clip.bvh:25: bad number 'x'"),
+    (lambda t: t.replace("Xrotation Yrotation Zrotation", "Xrotation Yrotation Wrotation"),
+     r"clip.bvh:9: unknown channel 'Wrotation' in joint Upper"),
+    (lambda t: t.replace("OFFSET 0 1 0", "OFFSET 0 one 0"), r"clip.bvh:8: bad number 'one'"),
+    (lambda t: t.replace("Frames: 3", "Frames: 4"), r"clip.bvh:\d+: header says 4 frames, file has 3"),
+    (lambda t: t.replace("Frame Time: .05", "Frame Tme: .05"), r"clip.bvh:23: expected 'Frame Time:'"),
+    (lambda t: t.replace("ROOT Root", "ROOT Root\nBOGUS"), r"clip.bvh:3: expected '\{', found 'BOGUS'"),
+    (lambda t: t.replace("\t\t}\n\t}\n}\n", "\t\t}\n\t}\n"), r"clip.bvh:\d+: unexpected end of HIERARCHY"),
+])
+def test_malformed_files_name_file_and_line(tmp_path, edit, message):
+    with pytest.raises(ValueError, match=message):
+        bvh.read(write_text(tmp_path, edit(TWO_BONE)))
+
+
+def test_missing_file_is_a_value_error(tmp_path):
+    with pytest.raises(ValueError, match="cannot read BVH file"):
+        bvh.read(tmp_path / "nope.bvh")
+
+
+def test_write_rejects_inconsistent_clips(tmp_path):
+    clip = bvh.read(write_text(tmp_path, TWO_BONE))
+    clip.motion = clip.motion[:, :5]
+    with pytest.raises(ValueError, match="motion must be"):
+        bvh.write(tmp_path / "bad.bvh", clip)

@@ -1,0 +1,66 @@
+import numpy as np
+import pytest
+
+from motionlab import metrics
+from motionlab.representation import to_features
+
+from conftest import walker
+
+
+def test_pose_and_motion_error_known_offsets(walk):
+    f = to_features(walk, 20)
+    shifted = f.copy()
+    shifted[:, :63] += np.tile([0.03, 0.0, 0.04], 21)          # every joint 5 cm away
+    assert metrics.pose_error(shifted, f) == pytest.approx(0.05)
+    assert metrics.pose_error(f, f) == 0
+    moved = walk + np.array([0.0, 0.0, 0.1])
+    assert metrics.motion_error(moved, walk) == pytest.approx(0.1)
+    with pytest.raises(ValueError, match="one shape"):
+        metrics.motion_error(walk, walk[:-1])
+
+
+def test_foot_skating_is_zero_for_planted_feet_and_grows_with_sliding():
+    fps = 20.0
+    planted = np.zeros((40, 21, 3))
+    planted[..., 1] = 1.0                                       # everything off the floor
+    planted[:, [3, 4, 7, 8], 1] = 0.0                           # feet on the floor, still
+    assert metrics.foot_skating(planted, fps) == 0.0
+    sliding = planted.copy()
+    sliding[:, [3, 4, 7, 8], 2] = np.arange(40)[:, None] * 0.05  # 1 m/s along z, on the floor
+    assert metrics.foot_skating(sliding, fps) == pytest.approx(1.0)
+    lifted = sliding.copy()
+    lifted[:, [3, 4, 7, 8], 1] = 0.2                            # above every contact height
+    assert metrics.foot_skating(lifted, fps) == 0.0
+    half = sliding.copy()
+    half[:, [4, 8], 1] = 0.025                                  # toes at H/2: weight 2 - sqrt(2)
+    half[:, [3, 7], 1] = 0.05                                   # ankles at H/2
+    assert metrics.foot_skating(half, fps) == pytest.approx(2 - np.sqrt(2))
+    with pytest.raises(ValueError, match="frames >= 2"):
+        metrics.foot_skating(planted[:1], fps)
+
+
+def test_bone_length_drift():
+    walk = walker()
+    rigid = np.repeat(walk[:1], 30, axis=0) + np.linspace(0, 1, 30)[:, None, None]
+    assert metrics.bone_length_drift(rigid) < 1e-12
+    stretched = rigid * np.where(np.arange(30) % 2, 1.1, 0.9)[:, None, None]
+    stretched_about_hips = stretched - stretched[:, :1] + rigid[:, :1]
+    assert metrics.bone_length_drift(stretched_about_hips) == pytest.approx(0.1, rel=1e-6)
+    assert metrics.bone_length_drift(np.stack([rigid, stretched_about_hips])) == pytest.approx(0.05, rel=1e-6)
+
+
+def test_diversity_over_time():
+    base = np.zeros((1, 10, 21, 3))
+    assert np.all(metrics.diversity(np.repeat(base, 4, 0)) == 0)
+    spread = np.concatenate([base, base], axis=0)
+    spread[0, :, :, 0] = np.arange(10)[:, None] * 0.1
+    spread[1, :, :, 0] = -np.arange(10)[:, None] * 0.1
+    assert np.allclose(metrics.diversity(spread), np.arange(10) * 0.1)
+    with pytest.raises(ValueError, match="n_samples >= 2"):
+        metrics.diversity(base)
+
+
+def test_summarize_units(walk):
+    s = metrics.summarize(walk, 20)
+    assert set(s) == {"foot skating (cm/s)", "bone-length drift (%)"}
+    assert all(np.isfinite(v) and v >= 0 for v in s.values())

@@ -1,0 +1,47 @@
+import matplotlib.pyplot as plt
+import numpy as np
+import pytest
+from PIL import Image
+
+from motionlab import viz
+
+from conftest import walker
+
+
+def test_plot_axes_are_a_rotation_not_a_mirror():
+    basis = np.eye(3)
+    mapped = np.stack(viz._plot_xyz(basis), axis=-1)           # rows: world x, y, z in plot axes
+    assert np.linalg.det(mapped) == pytest.approx(1.0)
+
+
+def test_static_plots_render(tmp_path):
+    walk = walker()
+    fig = plt.figure(figsize=(8, 4))
+    ax = viz.plot_skeleton(walk[::20], ax=fig.add_subplot(1, 2, 1, projection="3d"), title="walk")
+    assert len(ax.lines) >= 4 * 20
+    viz.plot_trajectory(walk, 20, ax=fig.add_subplot(1, 2, 2), label="path")
+    fig.savefig(tmp_path / "plots.png", dpi=50)
+    plt.close(fig)
+    assert Image.open(tmp_path / "plots.png").size[0] > 100
+    with pytest.raises(ValueError, match="poses: expected"):
+        viz.plot_skeleton(np.zeros((5, 3)))
+
+
+def test_bone_colours_mark_sides():
+    colors = viz.bone_colors()
+    assert colors.count(viz.LEFT_COLOR) == colors.count(viz.RIGHT_COLOR) == 8
+    assert colors.count(viz.CENTER_COLOR) == 4
+
+
+def test_animation_html_gif_and_frames(tmp_path):
+    walk, run = walker(frames=12), walker(frames=8, speed=3.0)
+    anim = viz.animate([walk, run], fps=20, titles=["walk", "run"], step=2)
+    html = viz.to_html(anim)
+    assert "<script" in html and "animation" in html.lower()
+    viz.save_gif(anim, str(tmp_path / "a.gif"))
+    gif = Image.open(tmp_path / "a.gif")
+    assert gif.n_frames == 6
+    viz.save_frame(viz.animate(walk, fps=20, follow=False), 5, str(tmp_path / "f.png"))
+    assert (tmp_path / "f.png").stat().st_size > 1000
+    with pytest.raises(ValueError, match="titles"):
+        viz.animate([walk, run], fps=20, titles=["one"])
