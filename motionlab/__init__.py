@@ -12,7 +12,8 @@ import importlib
 
 __version__ = "0.1.0"
 
-__all__ = ["bvh", "data", "filters", "metrics", "representation", "skeleton", "viz"]
+__all__ = ["bvh", "data", "filters", "metrics", "representation", "skeleton", "synthetic", "viz",
+           "widgets"]
 
 
 def __getattr__(name: str):

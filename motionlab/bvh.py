@@ -325,3 +325,102 @@ def write(path: str | Path, clip: BVH, decimals: int = 6) -> None:
     out.write(f"MOTION\nFrames: {clip.n_frames}\nFrame Time: {clip.frame_time:.7f}\n")
     np.savetxt(out, clip.motion, fmt=fmt, delimiter=" ")
     Path(path).write_text(out.getvalue(), encoding="utf-8")
+
+
+def _swing(rest: np.ndarray, current: np.ndarray) -> np.ndarray:
+    """Smallest rotations ``(F, 3, 3)`` taking unit vector ``rest`` ``(3,)`` to ``current`` ``(F, 3)``."""
+    axis = np.cross(rest, current)
+    cos = current @ rest
+    k = np.zeros(current.shape[:-1] + (3, 3))
+    k[..., 0, 1], k[..., 0, 2], k[..., 1, 2] = -axis[..., 2], axis[..., 1], -axis[..., 0]
+    k = k - np.swapaxes(k, -1, -2)
+    out = np.eye(3) + k + (k @ k) / np.maximum(1.0 + cos, 1e-12)[..., None, None]
+    flipped = cos < -1 + 1e-9                      # opposite: half a turn about any perpendicular
+    if flipped.any():
+        perp = np.cross(rest, [1.0, 0.0, 0.0] if abs(rest[0]) < 0.9 else [0.0, 1.0, 0.0])
+        perp /= np.linalg.norm(perp)
+        out[flipped] = 2 * np.outer(perp, perp) - np.eye(3)
+    return out
+
+
+def _euler_zyx(rotations: np.ndarray) -> np.ndarray:
+    """Angles ``(..., 3)`` in degrees (z, y, x) with ``R = Rz @ Ry @ Rx``."""
+    y = np.arcsin(np.clip(-rotations[..., 2, 0], -1.0, 1.0))
+    z = np.arctan2(rotations[..., 1, 0], rotations[..., 0, 0])
+    x = np.arctan2(rotations[..., 2, 1], rotations[..., 2, 2])
+    return np.rad2deg(np.stack([z, y, x], axis=-1))
+
+
+def from_positions(positions: np.ndarray, fps: float, skeleton=None, unit_m: float = 1.0) -> BVH:
+    """Joint positions -> a BVH clip whose forward kinematics gives them back.
+
+    Args:
+        positions: ``(frames, joints, 3)`` world positions in metres (y up) of ``skeleton``
+            (default: the 21-joint locomotion skeleton).
+        fps: frames per second.
+        unit_m: metres per file unit (``data.CMU_UNIT_M`` writes CMU units).
+
+    Each bone's rest offset has the bone's mean length, pointing as in frame 0. The root
+    carries the position and the character's heading; every other joint turns its bone by
+    the smallest rotation from the rest direction, so positions come back exactly when bone
+    lengths are constant (and with the mean lengths when they are not). A joint with several
+    children (the hips, the chest) gets one zero-length helper joint per child, named
+    ``<child>_base``, as the CMU skeleton has ``LHipJoint``, ``LowerBack`` and so on.
+    """
+    from .representation import facing_angles, y_rotation
+    from .skeleton import LOCOMOTION
+    skeleton = skeleton or LOCOMOTION
+    positions = np.asarray(positions, dtype=np.float64)
+    if positions.ndim != 3 or positions.shape[1:] != (skeleton.n_joints, 3):
+        raise ValueError(f"positions: expected shape (frames, {skeleton.n_joints}, 3), got {positions.shape}")
+    frames = len(positions)
+    heading = y_rotation(facing_angles(positions, fps, skeleton=skeleton))
+    in_body = np.einsum("fba,fjb->fja", heading, positions)       # heading removed
+    children = {j: [c for c, p in enumerate(skeleton.parents) if p == j] for j in range(skeleton.n_joints)}
+
+    names, parents, offsets, body_rot = [], [], [], []
+    world_of = {}                                 # file joint index -> (frames, 3, 3) body-frame rotation
+
+    def bone_rotation(parent: int, child: int) -> tuple[np.ndarray, np.ndarray]:
+        vector = in_body[:, child] - in_body[:, parent]
+        length = np.linalg.norm(vector, axis=-1)
+        rest = vector[0] / max(length[0], 1e-12)
+        current = vector / np.maximum(length, 1e-12)[:, None]
+        return rest * length.mean(), _swing(rest, current)
+
+    def add(name: str, parent: int, offset: np.ndarray, rotation: np.ndarray) -> int:
+        names.append(name)
+        parents.append(parent)
+        offsets.append(offset)
+        body_rot.append(rotation)
+        return len(names) - 1
+
+    def visit(joint: int, file_parent: int, offset: np.ndarray, rotation_in: np.ndarray | None) -> None:
+        kids = children[joint]
+        if len(kids) == 1:
+            kid_offset, rotation = bone_rotation(joint, kids[0])
+        else:
+            rotation = rotation_in if rotation_in is not None else np.broadcast_to(np.eye(3), (frames, 3, 3))
+        index = add(skeleton.names[joint], file_parent, offset, rotation)
+        if len(kids) == 1:
+            visit(kids[0], index, kid_offset, None)
+        elif len(kids) > 1:
+            for kid in kids:
+                kid_offset, kid_rotation = bone_rotation(joint, kid)
+                helper = add(f"{skeleton.names[kid]}_base", index, np.zeros(3), kid_rotation)
+                visit(kid, helper, kid_offset, None)
+
+    root = int(np.flatnonzero(skeleton.parents < 0)[0])
+    visit(root, -1, np.zeros(3), np.broadcast_to(np.eye(3), (frames, 3, 3)))
+    body_rot = np.stack(body_rot, axis=1)                           # (frames, J', 3, 3)
+    world_rot = heading[:, None] @ body_rot
+    parent_rot = np.stack([world_rot[:, p] if p >= 0 else np.broadcast_to(np.eye(3), (frames, 3, 3))
+                           for p in parents], axis=1)
+    local = np.swapaxes(parent_rot, -1, -2) @ world_rot
+    angles = _euler_zyx(local).reshape(frames, -1)
+    motion = np.concatenate([positions[:, root] / unit_m, angles], axis=1)
+    channels = [("Xposition", "Yposition", "Zposition", "Zrotation", "Yrotation", "Xrotation")] + \
+        [("Zrotation", "Yrotation", "Xrotation")] * (len(names) - 1)
+    leaves = {i: np.array([0.0, 0.05 / unit_m, 0.0]) for i in range(len(names)) if i not in parents}
+    return BVH(names, np.array(parents, dtype=np.int64), np.array(offsets) / unit_m, channels,
+               motion, 1.0 / fps, leaves)

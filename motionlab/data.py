@@ -2,7 +2,7 @@
 
 The path from a folder of files to batches a model can train on::
 
-    clips = load("../shared/mocap/cmu", fps=20)          # list of Clip, world positions
+    clips = load("synthetic", fps=20)                     # or a folder of CMU BVH files
     data = prepare(clips, window_s=4.0)                   # split by clip, augment, normalise
     batch = next(iter(torch.utils.data.DataLoader(data.train, batch_size=32)))
     batch.shape                                           # (32, 80, 66), normalised features
@@ -108,12 +108,21 @@ def load_bvh(path: str | Path, fps: float | None = None, unit_m: float = CMU_UNI
     return result.resampled(fps) if fps is not None else result
 
 
-def load(source: str | Path | Iterable[str | Path], fps: float = 20.0,
-         pattern: str = "*.bvh") -> list[Clip]:
-    """Load clips from a folder of BVH files, one file, or a list of files.
+def load(source: str | Path | Iterable[str | Path] = "synthetic", fps: float = 20.0,
+         pattern: str = "*.bvh", n_clips: int = 40, duration_s: float = 12.0,
+         seed: int = 0) -> list[Clip]:
+    """Load clips: ``"synthetic"``, a folder of BVH files, one file, or a list of files.
 
-    Clips come back sorted by name, resampled to ``fps``.
+    ``"synthetic"`` generates ``n_clips`` clips of ``duration_s`` seconds with
+    :mod:`motionlab.synthetic` (seeded by ``seed``): the built-in data every notebook uses
+    when no motion capture is given. Files come back sorted by name, resampled to ``fps``.
+    Either way the result is world positions, and everything after this goes through the
+    same code.
     """
+    if isinstance(source, str) and source == "synthetic":
+        from . import synthetic
+        return [Clip(name, motion.positions, fps, "synthetic")
+                for name, motion in synthetic.dataset(n_clips, duration_s, fps, seed)]
     if isinstance(source, (str, Path)):
         path = Path(source)
         if path.is_dir():
@@ -123,7 +132,7 @@ def load(source: str | Path | Iterable[str | Path], fps: float = 20.0,
         elif path.is_file():
             files = [path]
         else:
-            raise ValueError(f"source: {str(source)!r} is neither a folder nor a file")
+            raise ValueError(f"source: {str(source)!r} is neither 'synthetic', a folder nor a file")
     else:
         files = sorted(Path(f) for f in source)
     return [load_bvh(f, fps=fps) for f in files]
@@ -297,6 +306,15 @@ class MotionData:
         return "\n".join(rows)
 
 
+def _describe_sources(clips: Sequence[Clip]) -> str:
+    """``"synthetic"``, the folder the files came from, or ``"clips"``."""
+    sources = {c.source for c in clips}
+    if len(sources) == 1 and not Path(next(iter(sources))).suffix:
+        return next(iter(sources)) or "clips"
+    folders = {str(Path(s).parent) for s in sources if s}
+    return folders.pop() if len(folders) == 1 else "clips"
+
+
 def prepare(clips: Sequence[Clip], window_s: float = 4.0, stride_s: float | None = None,
             fractions: tuple[float, float, float] = (0.8, 0.1, 0.1),
             augment_with: Sequence[str] = ("mirror", "reverse"), seed: int = 0,
@@ -342,7 +360,7 @@ def prepare(clips: Sequence[Clip], window_s: float = 4.0, stride_s: float | None
     normalizer = Normalizer.fit(windows["train"])
     datasets = {s: MotionDataset(normalizer.normalize(w)) for s, w in windows.items()}
     description = {
-        "source": source or (str(Path(clips[0].source).parent) if clips[0].source else "clips"),
+        "source": source or _describe_sources(clips),
         "fps": fps, "window_frames": length, "stride_frames": stride,
         "augment": list(augment_with), "seed": seed, "fractions": list(fractions),
         "facing_smoothing_s": facing_smoothing_s, "skeleton": list(LOCOMOTION.names),

@@ -102,6 +102,12 @@ def diversity(samples: np.ndarray) -> np.ndarray:
     return np.linalg.norm(samples - mean, axis=-1).mean(axis=(0, 2))
 
 
+CMU_REFERENCE = {"foot skating (cm/s)": 1.97, "bone-length drift (%)": 0.092}
+"""Medians over the 55 real CMU clips of ``../shared/mocap/cmu`` at 20 fps, as printed by
+``benchmarks/real_data.py`` (and checked against the files by the tests where they exist):
+the ground truth that generated motion is compared with when no real data is at hand."""
+
+
 def summarize(positions: np.ndarray, fps: float, skeleton: Skeleton = LOCOMOTION) -> dict[str, float]:
     """Foot skating (cm/s) and bone-length drift (%) of one clip, for tables."""
     return {"foot skating (cm/s)": 100 * foot_skating(positions, fps),

@@ -161,6 +161,8 @@ def animate(clips: np.ndarray | Sequence[np.ndarray], fps: float, titles: Sequen
     for i, clip in enumerate(clips):
         ax = fig.add_subplot(1, len(clips), i + 1, projection="3d")
         _style_3d(ax, titles[i] if titles else None)
+        if follow:                                   # the numbers would change every frame
+            ax.set_xticklabels([]), ax.set_yticklabels([])
         height = clip[..., 1].max() + 0.1
         if not follow:
             center = 0.5 * (clip[:, 0, [0, 2]].min(0) + clip[:, 0, [0, 2]].max(0))
@@ -197,16 +199,22 @@ def animate(clips: np.ndarray | Sequence[np.ndarray], fps: float, titles: Sequen
     return anim
 
 
-def to_html(anim: animation.FuncAnimation) -> str:
-    """HTML with a play bar (matplotlib's ``to_jshtml``): works in notebooks, no ffmpeg."""
-    with matplotlib.rc_context({"animation.embed_limit": 50.0}):
+def to_html(anim: animation.FuncAnimation, dpi: int = 72, frame_format: str = "jpeg") -> str:
+    """HTML with a play bar (matplotlib's ``to_jshtml``): works in notebooks, no ffmpeg.
+
+    Frames are embedded as ``frame_format`` images at ``dpi``; JPEG at 72 dpi keeps a
+    100-frame, three-panel animation near 1 MB, small enough to commit in a notebook.
+    """
+    anim._fig.set_dpi(dpi)
+    with matplotlib.rc_context({"animation.embed_limit": 50.0, "savefig.dpi": dpi,
+                                "animation.frame_format": frame_format}):
         return anim.to_jshtml(default_mode="loop")
 
 
-def show(anim: animation.FuncAnimation):
+def show(anim: animation.FuncAnimation, dpi: int = 72):
     """Display an animation in a notebook cell (an ``IPython.display.HTML`` object)."""
     from IPython.display import HTML
-    return HTML(to_html(anim))
+    return HTML(to_html(anim, dpi=dpi))
 
 
 def save_gif(anim: animation.FuncAnimation, path: str, fps: float | None = None, dpi: int = 72) -> None:
@@ -219,3 +227,50 @@ def save_frame(anim: animation.FuncAnimation, frame: int, path: str, dpi: int = 
     """Render one frame of an animation to a PNG (to look at it without a notebook)."""
     anim._func(frame)
     anim._fig.savefig(path, dpi=dpi)
+
+
+def plot_controls(control: np.ndarray, fps: float, axes=None, label: str | None = None, **style):
+    """The three control signals ``(frames, 3)`` (or full features ``(frames, 66)``) against time.
+
+    One panel each for forward velocity (m/s), sideways velocity (m/s, left +) and
+    turning velocity (rad/s, left +). Returns the three axes.
+    """
+    from .representation import CONTROL_NAMES
+    control = np.asarray(control)
+    if control.ndim != 2 or control.shape[1] not in (3, 66):
+        raise ValueError(f"control: expected (frames, 3) or (frames, 66), got {control.shape}")
+    control = control[:, -3:]
+    if axes is None:
+        axes = plt.figure(figsize=(9, 5)).subplots(3, 1, sharex=True)
+    t = np.arange(len(control)) / fps
+    for k, (ax, name) in enumerate(zip(axes, CONTROL_NAMES)):
+        ax.plot(t, control[:, k], label=label, **style)
+        ax.set_ylabel(name.replace(" (", "\n("), fontsize=9)
+        ax.axhline(0, color="0.8", lw=0.8)
+    axes[-1].set_xlabel("time (s)")
+    if label:
+        axes[0].legend(loc="upper right", fontsize=8)
+    return axes
+
+
+def plot_frame(positions: np.ndarray, frame: int, fps: float, fig=None, title: str | None = None,
+               skeleton: Skeleton = LOCOMOTION):
+    """One frame of a clip ``(frames, joints, 3)``: the pose in 3-D beside the path from above.
+
+    The path shows where the character has been (solid) and will go (faint), with a
+    marker at ``frame``. This is the figure the notebook widgets redraw. Returns the figure.
+    """
+    positions = np.asarray(positions)
+    if not 0 <= frame < len(positions):
+        raise ValueError(f"frame: expected 0..{len(positions) - 1}, got {frame}")
+    fig = fig or plt.figure(figsize=(9, 4))
+    ax3d = fig.add_subplot(1, 2, 1, projection="3d")
+    plot_skeleton(positions[frame], ax=ax3d, skeleton=skeleton,
+                  title=title or f"frame {frame} ({frame / fps:.2f} s)")
+    ax = fig.add_subplot(1, 2, 2)
+    plot_trajectory(positions, fps, ax=ax, skeleton=skeleton, color="0.75")
+    root = positions[: frame + 1, 0]
+    ax.plot(root[:, 2], root[:, 0], color="tab:green")
+    ax.plot(root[-1:, 2], root[-1:, 0], "o", color="tab:orange", ms=8)
+    ax.set_title("path from above")
+    return fig

@@ -124,3 +124,32 @@ def test_write_rejects_inconsistent_clips(tmp_path):
     clip.motion = clip.motion[:, :5]
     with pytest.raises(ValueError, match="motion must be"):
         bvh.write(tmp_path / "bad.bvh", clip)
+
+
+def test_from_positions_writes_a_bvh_that_gives_the_positions_back(tmp_path):
+    from motionlab import data, synthetic
+    from motionlab.skeleton import LOCOMOTION
+    motion = synthetic.random_motion(6, 20, seed=4)
+    clip = bvh.from_positions(motion.positions, 20, unit_m=data.CMU_UNIT_M)
+    assert set(LOCOMOTION.names) <= set(clip.joint_names)
+    assert "LeftUpLeg_base" in clip.joint_names and len(clip.joint_names) == 27
+    bvh.write(tmp_path / "synthetic.bvh", clip)
+    back = data.load_bvh(tmp_path / "synthetic.bvh")
+    assert back.fps == 20 and back.n_frames == len(motion.positions)
+    assert np.abs(back.positions - motion.positions).max() < 1e-4
+
+
+def test_from_positions_survives_half_turns_and_rejects_bad_shapes():
+    from conftest import walker
+    walk = walker(frames=100, fps=20, speed=1.0, turn_rate=np.pi)      # turns 5 half-turns
+    clip = bvh.from_positions(walk, 20)
+    index = [clip.joint_names.index(n) for n in
+             ("Hips", "LeftUpLeg", "LeftLeg", "LeftFoot", "LeftToeBase", "RightUpLeg", "RightLeg",
+              "RightFoot", "RightToeBase", "Spine", "Spine1", "Neck1", "Head", "LeftArm",
+              "LeftForeArm", "LeftHand", "LeftHandIndex1", "RightArm", "RightForeArm",
+              "RightHand", "RightHandIndex1")]
+    assert np.isfinite(clip.motion).all()
+    # the walker's bones stretch slightly; directions are kept, lengths become the mean
+    assert np.abs(clip.world_positions()[:, index] - walk).max() < 0.05
+    with pytest.raises(ValueError, match="positions: expected shape"):
+        bvh.from_positions(walk[:, :20], 20)

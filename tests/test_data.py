@@ -127,7 +127,7 @@ def test_load_bvh_maps_to_21_joints_resamples_and_drops_tpose(tmp_path):
 
 
 def test_load_errors_name_the_problem(tmp_path):
-    with pytest.raises(ValueError, match="neither a folder nor a file"):
+    with pytest.raises(ValueError, match="neither .synthetic., a folder nor a file"):
         data.load(tmp_path / "missing")
     with pytest.raises(ValueError, match="no files matching"):
         data.load(tmp_path)

@@ -45,3 +45,17 @@ def test_animation_html_gif_and_frames(tmp_path):
     assert (tmp_path / "f.png").stat().st_size > 1000
     with pytest.raises(ValueError, match="titles"):
         viz.animate([walk, run], fps=20, titles=["one"])
+
+
+def test_control_and_frame_plots(tmp_path):
+    from motionlab.representation import to_features
+    walk = walker()
+    axes = viz.plot_controls(to_features(walk, 20), 20, label="walk")
+    assert len(axes) == 3 and axes[0].get_legend() is not None
+    fig = viz.plot_frame(walk, 40, 20)
+    fig.savefig(tmp_path / "frame.png", dpi=40)
+    plt.close("all")
+    with pytest.raises(ValueError, match="frame: expected 0..79"):
+        viz.plot_frame(walk, 80, 20)
+    with pytest.raises(ValueError, match="control: expected"):
+        viz.plot_controls(np.zeros((5, 4)), 20)

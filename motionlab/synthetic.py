@@ -1,0 +1,473 @@
+"""Procedural locomotion: the built-in data set, so every notebook runs without downloads.
+
+A control trajectory (forward, sideways and turning velocity per frame: the same three
+numbers as the control part of :mod:`motionlab.representation`) drives a walking,
+jogging or running body of 21 joints:
+
+1. **Root path.** The control is integrated into the path of the root on the floor.
+2. **Gait timing.** A stride phase advances at a cadence set by the speed, as in human
+   gait: about 1.6-2.0 steps/s for walking, 2.6-3.0 steps/s for running. Each foot is on
+   the floor (*stance*) for a fraction of the stride: about 62 % when walking (both feet
+   down part of the time), about 36 % when running (a flight phase with both feet up).
+3. **Footsteps.** Each stance places the foot on the floor beside the root's position at
+   mid-stance, and there it stays: the ankle until the heel lifts, then the toes. Between
+   stances the foot swings along a smooth arc to the next footstep.
+4. **Pelvis.** It follows the root with a side-to-side sway and a twist per stride, and
+   rides as high as the legs can reach the planted feet (which gives the walking bob);
+   running adds a bounce, lowest at mid-stance.
+5. **Legs** by two-bone inverse kinematics from each hip to its ankle, knees forward.
+6. **Upper body** by forward kinematics: spine leaning into speed and turns and twisting
+   against the pelvis, a steady head, arms swinging against the legs, elbows bent more
+   when running.
+
+Every clip draws its own :class:`Body` (proportions within human ranges, constant bone
+lengths) and :class:`Style` (stride, step width, toe-out, arm swing, elbow bend, lean,
+bounce, asymmetry), so models have a distribution to learn rather than one gait cycle.
+Everything is vectorised over frames and deterministic given a seed.
+
+Positions are metres, y up, floor at y = 0; angles in :class:`Style` are degrees.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, fields, replace
+
+import numpy as np
+
+from .bvh import axis_rotation
+from .filters import gaussian_smooth
+from .representation import integrate_control, y_rotation
+from .skeleton import LOCOMOTION
+
+GRAVITY = 9.81
+J = {name: i for i, name in enumerate(LOCOMOTION.names)}
+
+
+# ----------------------------------------------------------------------------------------
+# Bodies and styles
+# ----------------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class Body:
+    """Body proportions in metres (defaults: the mean of the CMU subjects, about 1.75 m).
+
+    Offsets are in the body frame: ``x`` left, ``y`` up, ``z`` forward.
+    """
+
+    hip_offset: tuple[float, float, float] = (0.09, -0.10, 0.04)   # pelvis -> left hip
+    thigh: float = 0.41
+    shin: float = 0.435
+    ankle_height: float = 0.085       # ankle joint above the floor, foot flat
+    toe_height: float = 0.035         # toe joint above the floor, foot flat
+    foot_length: float = 0.118        # ankle to toe joint, along the floor
+    lower_back: float = 0.118
+    upper_back: float = 0.118
+    neck: float = 0.096
+    head: float = 0.097
+    shoulder_offset: tuple[float, float, float] = (0.185, 0.065, -0.03)  # chest -> left shoulder
+    upper_arm: float = 0.298
+    forearm: float = 0.206
+    hand: float = 0.036
+
+    @classmethod
+    def random(cls, rng: np.random.Generator) -> "Body":
+        """A body scaled to 0.92-1.08 of the default, with a few percent of independent
+        variation per segment (legs, trunk, arms, shoulders)."""
+        base = cls()
+        scale = rng.uniform(0.92, 1.08)
+        leg, trunk, arm, width = rng.normal(1.0, 0.025, 4).clip(0.93, 1.07)
+
+        def s(value, *factors):
+            out = np.asarray(value, dtype=float) * scale * np.prod(factors)
+            return tuple(out) if out.ndim else float(out)
+
+        hip = np.array(base.hip_offset) * scale * np.array([width, 1, 1])
+        return cls(hip_offset=tuple(hip), thigh=s(base.thigh, leg), shin=s(base.shin, leg),
+                   ankle_height=s(base.ankle_height), toe_height=s(base.toe_height),
+                   foot_length=s(base.foot_length, leg), lower_back=s(base.lower_back, trunk),
+                   upper_back=s(base.upper_back, trunk), neck=s(base.neck, trunk),
+                   head=s(base.head), shoulder_offset=s(base.shoulder_offset, width),
+                   upper_arm=s(base.upper_arm, arm), forearm=s(base.forearm, arm),
+                   hand=s(base.hand, arm))
+
+    @property
+    def leg_length(self) -> float:
+        return self.thigh + self.shin
+
+    @property
+    def toe_offset(self) -> np.ndarray:
+        """Ankle -> toe joint with the foot flat, ``(3,)``, foot frame."""
+        return np.array([0.0, self.toe_height - self.ankle_height, self.foot_length])
+
+
+@dataclass(frozen=True)
+class Style:
+    """How one person moves. Each field is a factor on the typical value (1.0) or an angle
+    in degrees; :meth:`random` draws them from human-like ranges."""
+
+    cadence: float = 1.0          # steps per second, as a factor
+    step_width: float = 0.12      # distance between the feet's tracks, metres
+    toe_out: float = 6.0          # feet turned outwards, degrees
+    arm_swing: float = 1.0        # factor on the arm swing amplitude
+    elbow_bend: float = 0.0       # extra elbow flexion, degrees
+    lean: float = 0.0             # extra forward lean of the trunk, degrees
+    bounce: float = 1.0           # factor on the vertical bounce
+    sway: float = 1.0             # factor on the pelvis side-to-side sway and twist
+    knee_reach: float = 0.975     # how straight the stance leg gets (fraction of its length)
+    asymmetry: float = 0.0        # left arm swings (1 + a) times, right arm (1 - a) times
+    run_speed: float = 2.2        # forward speed (m/s) at the middle of the walk-run transition
+    clearance: float = 1.0        # factor on how high the swinging foot lifts
+
+    @classmethod
+    def random(cls, rng: np.random.Generator) -> "Style":
+        return cls(cadence=rng.uniform(0.95, 1.05), step_width=rng.uniform(0.08, 0.17),
+                   toe_out=rng.uniform(0.0, 12.0), arm_swing=rng.uniform(0.6, 1.4),
+                   elbow_bend=rng.uniform(-8.0, 15.0), lean=rng.uniform(-2.0, 4.0),
+                   bounce=rng.uniform(0.7, 1.3), sway=rng.uniform(0.7, 1.3),
+                   knee_reach=rng.uniform(0.965, 0.985), asymmetry=rng.uniform(-0.15, 0.15),
+                   run_speed=rng.uniform(2.0, 2.4), clearance=rng.uniform(0.8, 1.2))
+
+
+# ----------------------------------------------------------------------------------------
+# Control trajectories
+# ----------------------------------------------------------------------------------------
+
+# (name, probability, forward m/s range, sideways m/s range, turning rad/s spread)
+ACTIVITIES = (
+    ("stand", 0.08, (0.0, 0.0), (0.0, 0.0), 0.0),
+    ("slow walk", 0.12, (0.4, 0.9), (0.0, 0.0), 0.4),
+    ("walk", 0.30, (0.9, 1.8), (0.0, 0.0), 0.5),
+    ("jog", 0.14, (2.0, 3.0), (0.0, 0.0), 0.35),
+    ("run", 0.12, (3.0, 4.0), (0.0, 0.0), 0.25),
+    ("backwards", 0.08, (-1.0, -0.4), (0.0, 0.0), 0.2),
+    ("side step", 0.10, (-0.1, 0.3), (0.25, 0.6), 0.1),
+    ("turn on the spot", 0.06, (0.0, 0.2), (0.0, 0.0), 1.2),
+)
+"""The activities a random control trajectory strings together."""
+
+
+def random_control(duration_s: float, fps: float, rng: np.random.Generator | int = 0,
+                   segment_s: tuple[float, float] = (1.5, 4.0)) -> np.ndarray:
+    """A random control trajectory ``(frames, 3)``: forward, sideways (m/s), turning (rad/s).
+
+    Strings together :data:`ACTIVITIES` (standing, walking, running, walking backwards,
+    side-stepping, turning), each held for ``segment_s`` seconds, with smooth changes
+    between them (starts and stops take about a second).
+    """
+    rng = np.random.default_rng(rng)
+    if duration_s <= 0 or fps <= 0:
+        raise ValueError(f"duration_s and fps must be > 0, got {duration_s} and {fps}")
+    frames = max(2, int(round(duration_s * fps)))
+    probabilities = np.array([a[1] for a in ACTIVITIES])
+    target = np.zeros((frames, 3))
+    start = 0
+    while start < frames:
+        length = int(rng.uniform(*segment_s) * fps)
+        _, _, fwd, side, turn = ACTIVITIES[rng.choice(len(ACTIVITIES), p=probabilities / probabilities.sum())]
+        value = [rng.uniform(*fwd), rng.choice([-1, 1]) * rng.uniform(*side),
+                 np.clip(rng.normal(0.0, turn), -1.5, 1.5)]
+        target[start:start + length] = value
+        start += length
+    return gaussian_smooth(target, 0.35 * fps)
+
+
+# ----------------------------------------------------------------------------------------
+# Helpers
+# ----------------------------------------------------------------------------------------
+
+def _smoothstep(x: np.ndarray) -> np.ndarray:
+    x = np.clip(x, 0.0, 1.0)
+    return x * x * (3 - 2 * x)
+
+
+def _rot(axis: str, degrees: np.ndarray) -> np.ndarray:
+    return axis_rotation(axis, degrees)
+
+
+def _apply(rotations: np.ndarray, vectors: np.ndarray) -> np.ndarray:
+    """``(F, 3, 3) @ (F, 3)`` or ``(F, 3, 3) @ (3,)`` -> ``(F, 3)``."""
+    return np.einsum("fab,fb->fa", rotations, np.broadcast_to(vectors, rotations.shape[:-1]))
+
+
+def _soft_min(*values: np.ndarray, softness: float = 0.01) -> np.ndarray:
+    """A smooth minimum, never above the true minimum."""
+    stack = np.stack(values)
+    low = stack.min(axis=0)
+    return low - softness * np.log(np.exp(-(stack - low) / softness).sum(axis=0))
+
+
+def _two_bone_ik(hip: np.ndarray, ankle: np.ndarray, pole: np.ndarray, upper: float,
+                 lower: float) -> tuple[np.ndarray, np.ndarray]:
+    """Knee positions ``(F, 3)`` putting the ankle at ``ankle`` with the knee towards ``pole``.
+
+    An ankle out of reach is pulled in along the hip-ankle line (returned as the second
+    value), so bone lengths always stay exact.
+    """
+    to_ankle = ankle - hip
+    dist = np.linalg.norm(to_ankle, axis=-1, keepdims=True)
+    reach = np.clip(dist, abs(upper - lower) + 1e-6, (upper + lower) * (1 - 1e-9))
+    direction = to_ankle / dist
+    ankle = hip + direction * reach
+    cos_hip = (upper ** 2 + reach ** 2 - lower ** 2) / (2 * upper * reach)
+    bend = pole - np.sum(pole * direction, axis=-1, keepdims=True) * direction
+    bend /= np.linalg.norm(bend, axis=-1, keepdims=True)
+    knee = hip + upper * (cos_hip * direction + np.sqrt(1 - cos_hip ** 2) * bend)
+    return knee, ankle
+
+
+# ----------------------------------------------------------------------------------------
+# The generator
+# ----------------------------------------------------------------------------------------
+
+@dataclass
+class Motion:
+    """One generated clip.
+
+    Attributes:
+        positions: ``(frames, 21, 3)`` world positions of the locomotion skeleton, metres.
+        control: ``(frames, 3)`` the commanded forward, sideways (m/s), turning (rad/s).
+        contacts: ``(frames, 2)`` bool, left and right foot in stance.
+        fps: frames per second.
+        body, style: what was drawn for this clip.
+    """
+
+    positions: np.ndarray
+    control: np.ndarray
+    contacts: np.ndarray
+    fps: float
+    body: Body
+    style: Style
+
+
+def cadence_steps_per_s(speed: np.ndarray, run_blend: np.ndarray) -> np.ndarray:
+    """Steps per second at forward ``speed`` (m/s), blending walking (0) and running (1).
+
+    Walking: 1.5 + 0.22 v (1.7 steps/s at 0.9 m/s, 1.9 at 1.8 m/s); running: 2.5 + 0.1 v.
+    """
+    speed = np.abs(speed)
+    walk = 1.5 + 0.22 * np.minimum(speed, 2.0)
+    run = 2.5 + 0.1 * np.minimum(speed, 5.0)
+    return (1 - run_blend) * walk + run_blend * run
+
+
+def generate(control: np.ndarray, fps: float, body: Body | None = None,
+             style: Style | None = None, start: np.ndarray | None = None,
+             phase: float = 0.0) -> Motion:
+    """Generate the motion that follows ``control`` ``(frames, 3)`` at ``fps``.
+
+    Args:
+        control: forward (m/s), sideways (m/s, left positive), turning (rad/s, left positive).
+        fps: frames per second of ``control`` and of the result.
+        body, style: default :class:`Body` and :class:`Style` if not given.
+        start: root ``(x, z, heading)`` at the first frame (default the origin facing +z).
+        phase: where in the stride the clip starts, in strides (0-1).
+    """
+    control = np.asarray(control, dtype=np.float64)
+    if control.ndim != 2 or control.shape[1] != 3 or len(control) < 2:
+        raise ValueError(f"control: expected shape (frames >= 2, 3), got {control.shape}")
+    if not np.isfinite(control).all():
+        raise ValueError("control: contains NaN or infinite values")
+    if fps <= 0:
+        raise ValueError(f"fps must be > 0, got {fps}")
+    body = body or Body()
+    style = style or Style()
+
+    # 1. Root path, with a second of padding either side so footsteps exist at the edges.
+    pad = int(np.ceil(fps))
+    padded = np.pad(control, ((pad, pad), (0, 0)), mode="edge")
+    root = integrate_control(padded, fps)
+    start = np.zeros(3) if start is None else np.asarray(start, dtype=np.float64)
+    turn = start[2] - root[pad, 2]                              # move the path rigidly so
+    rel = np.stack([root[:, 0] - root[pad, 0], np.zeros(len(root)), root[:, 1] - root[pad, 1]], -1)
+    rel = rel @ y_rotation(turn).T                              # that frame `pad` is `start`
+    root = np.stack([start[0] + rel[:, 0], start[1] + rel[:, 2], root[:, 2] + turn], -1)
+    frames = len(padded)
+    t = np.arange(frames) / fps
+    forward, sideways, turning = padded.T
+
+    # 2. Gait timing: how active (0 standing .. 1 moving), how much running, the phase.
+    smooth = lambda x: gaussian_smooth(x, 0.15 * fps)  # noqa: E731
+    planar = np.hypot(forward, sideways)
+    active = smooth(_smoothstep(np.maximum(planar / 0.5, np.abs(turning) / 0.8)))
+    running = smooth(_smoothstep((forward - style.run_speed + 0.3) / 0.6))
+    cadence = style.cadence * cadence_steps_per_s(planar, running)
+    stance_fraction = ((1 - running) * (0.64 - 0.02 * np.minimum(planar, 2.0))
+                       + running * (0.40 - 0.025 * np.minimum(planar, 5.0)))
+    stride_s = 2.0 / cadence
+    cycles = phase + np.concatenate([[0.0], np.cumsum(0.5 * (cadence[1:] + cadence[:-1]) / 2 / fps)])
+    forwardness = smooth(_smoothstep(forward / 1.0))          # heel-toe roll when going forwards
+    heading_dir = y_rotation(root[:, 2])
+
+    def at(times: np.ndarray, values: np.ndarray) -> np.ndarray:
+        return np.interp(times, t, values)
+
+    feet = {}
+    for side, sign, offset in (("Left", 1.0, 0.0), ("Right", -1.0, 0.5)):
+        c = cycles + offset                                     # this foot's stride count
+        k = np.floor(c).astype(int)
+        u = c - k                                               # 0..1 within the stride
+        first = k.min() - 1
+        cycle_ids = np.arange(first, k.max() + 3)
+        # times of each cycle's start and mid-stance (extrapolated past the padded clip)
+        slope = 1.0 / (c[-1] - c[0]) * (t[-1] - t[0])
+        cycle_t = np.interp(cycle_ids, c, t, left=np.nan, right=np.nan)
+        cycle_t = np.where(np.isnan(cycle_t), t[0] + (cycle_ids - c[0]) * slope, cycle_t)
+        beta_k = at(cycle_t, stance_fraction)
+        # the foot is under the hips a little before mid-stance when running
+        under = beta_k * (0.5 - 0.12 * at(cycle_t, running))
+        mid_t = np.interp(cycle_ids + under, c, t, left=np.nan, right=np.nan)
+        mid_t = np.where(np.isnan(mid_t), t[0] + (cycle_ids + under - c[0]) * slope, mid_t)
+        mid_t = np.clip(mid_t, t[0], t[-1])
+
+        # 3. Footsteps: beside the root at mid-stance, wider when side-stepping so the
+        # feet never cross, turned out by the style's toe-out.
+        heading_k = at(mid_t, root[:, 2])
+        half_width = style.step_width / 2 + np.abs(at(mid_t, sideways)) * at(mid_t, stride_s) / 4
+        lateral = np.stack([sign * half_width, np.zeros_like(half_width), np.zeros_like(half_width)], -1)
+        plant = np.stack([at(mid_t, root[:, 0]), np.zeros_like(mid_t), at(mid_t, root[:, 1])], -1)
+        plant += _apply(y_rotation(heading_k), lateral)
+        plant[:, 1] = body.ankle_height
+        yaw_k = np.rad2deg(heading_k) + sign * style.toe_out
+        roll = at(mid_t, forwardness) * at(mid_t, active)
+        strike_k = -12.0 * roll                                  # toes up at heel strike
+        lift_k = (30.0 + 25.0 * at(mid_t, running)) * roll       # heel up at toe-off
+        foot_rot_k = _rot("Y", yaw_k)
+        toe_plant = plant + _apply(foot_rot_k, body.toe_offset)
+        lift_ankle = toe_plant - _apply(foot_rot_k @ _rot("X", lift_k), body.toe_offset)
+
+        i = k - first                                            # index of this frame's cycle
+        beta = beta_k[i]
+        stance = u < beta
+        # stance: flat then heel rising about the toe (the planted joints stay put)
+        us = np.clip(u / beta, 0, 1)
+        heel_off = us > 0.55
+        pitch_stance = np.where(us < 0.25, strike_k[i] * (1 - us / 0.25), 0.0)
+        pitch_stance = np.where(heel_off, lift_k[i] * ((us - 0.55) / 0.45) ** 2, pitch_stance)
+        stance_rot = _rot("Y", yaw_k[i]) @ _rot("X", pitch_stance)
+        ankle_stance = np.where(heel_off[:, None], toe_plant[i] - _apply(stance_rot, body.toe_offset),
+                                plant[i])
+        # swing: lift-off ankle -> next footstep along a smooth arc
+        uw = np.clip((u - beta) / (1 - beta), 0, 1)
+        s = 0.5 - 0.5 * np.cos(np.pi * uw)
+        ankle_swing = lift_ankle[i] + s[:, None] * (plant[i + 1] - lift_ankle[i])
+        lift_height = (0.07 + 0.2 * running) * style.clearance * active
+        peak_early = uw ** (1 - 0.35 * running)                # running: heel kicks up behind
+        ankle_swing[:, 1] += lift_height * np.sin(np.pi * peak_early) ** 1.5
+        pitch_swing = lift_k[i] + s * (strike_k[i + 1] - lift_k[i])
+        yaw_swing = yaw_k[i] + s * (yaw_k[i + 1] - yaw_k[i])
+        swing_rot = _rot("Y", yaw_swing) @ _rot("X", pitch_swing)
+
+        feet[side] = {
+            "stance": stance, "u": u, "beta": beta, "swing_u": np.where(stance, 0.0, uw),
+            "ankle": np.where(stance[:, None], ankle_stance, ankle_swing),
+            "foot_rot": np.where(stance[:, None, None], stance_rot, swing_rot),
+        }
+
+    # 4. Pelvis: sway towards the stance foot, twist with the legs, list, bob and bounce.
+    left_u, beta = feet["Left"]["u"], stance_fraction
+    stride_wave = np.cos(2 * np.pi * (left_u - beta / 2))      # +1 at left mid-stance
+    step_wave = np.cos(4 * np.pi * (left_u - beta / 2))        # +1 at each mid-stance
+    sway = 0.025 * style.sway * active * (1 - 0.6 * running) * stride_wave
+    twist = -5.0 * style.sway * active * np.cos(2 * np.pi * left_u)   # degrees, left hip forward
+    tilt = 6.0 + 2.0 * running
+    list_ = 3.0 * style.sway * active * stride_wave
+    pelvis_rot = (_rot("Y", np.rad2deg(root[:, 2]) + twist) @ _rot("X", np.broadcast_to(tilt, twist.shape))
+                  @ _rot("Z", list_))
+    pelvis_xz = np.stack([root[:, 0], np.zeros(frames), root[:, 1]], -1) + _apply(
+        heading_dir, np.stack([sway, np.zeros(frames), np.zeros(frames)], -1))
+    hip_local = {side: np.array(body.hip_offset) * [sign, 1, 1]
+                 for side, sign in (("Left", 1.0), ("Right", -1.0))}
+    hip_from_pelvis = {side: _apply(pelvis_rot, off) for side, off in hip_local.items()}
+    reach = style.knee_reach * body.leg_length
+    highest = []
+    for side in ("Left", "Right"):
+        hip_xz = pelvis_xz + hip_from_pelvis[side] * [1, 0, 1]
+        ankle = feet[side]["ankle"]
+        horizontal = np.linalg.norm((ankle - hip_xz)[:, [0, 2]], axis=-1)
+        vertical = np.sqrt(np.maximum(reach ** 2 - horizontal ** 2, 0.01))
+        # a swinging leg can bend its knee: it only holds the pelvis down near touchdown
+        # and lift-off, so the constraint fades in and out smoothly
+        slack = 0.4 * active * np.sin(np.pi * feet[side]["swing_u"]) ** 2
+        highest.append(ankle[:, 1] + vertical - hip_from_pelvis[side][:, 1] + slack)
+    standing = body.ankle_height + reach - hip_local["Left"][1]
+    crouch = 0.03 * running + 0.01 * np.minimum(planar, 1.5) * (1 - running)
+    bounce = style.bounce * active * (0.012 * (1 - running) * step_wave - 0.035 * running * step_wave)
+    pelvis_y = _soft_min(standing - crouch + bounce, *highest)
+    hips = pelvis_xz + pelvis_y[:, None] * [0, 1, 0]
+
+    positions = np.zeros((frames, 21, 3))
+    positions[:, J["Hips"]] = hips
+
+    # 5. Legs by inverse kinematics, knees pointing where the foot points.
+    contacts = np.zeros((frames, 2), dtype=bool)
+    for n, side in enumerate(("Left", "Right")):
+        hip = hips + hip_from_pelvis[side]
+        foot_forward = _apply(feet[side]["foot_rot"], np.array([0.0, 0.0, 1.0]))
+        pole = foot_forward + _apply(pelvis_rot, np.array([0.0, 0.0, 1.0]))
+        knee, ankle = _two_bone_ik(hip, feet[side]["ankle"], pole, body.thigh, body.shin)
+        positions[:, J[f"{side}UpLeg"]] = hip
+        positions[:, J[f"{side}Leg"]] = knee
+        positions[:, J[f"{side}Foot"]] = ankle
+        positions[:, J[f"{side}ToeBase"]] = ankle + _apply(feet[side]["foot_rot"], body.toe_offset)
+        contacts[:, n] = feet[side]["stance"]
+
+    # 6. Upper body by forward kinematics.
+    heading_deg = np.rad2deg(root[:, 2])
+    speed_lean = (2.0 + 1.5 * np.minimum(planar, 2.0)) * (1 - running) + (5.0 + 1.5 * planar) * running
+    lean = (speed_lean * np.sign(forward + 1e-9) * (forward > -0.1) + style.lean)
+    turn_lean = np.rad2deg(np.arctan(forward * turning / GRAVITY)) * 0.7   # into the turn
+    counter = -0.8 * twist                                       # chest twists against pelvis
+    lumbar_rot = (_rot("Y", heading_deg + 0.3 * twist) @ _rot("X", 0.5 * lean)
+                  @ _rot("Z", -0.5 * turn_lean + 0.3 * list_))
+    chest_rot = _rot("Y", heading_deg + counter) @ _rot("X", lean) @ _rot("Z", -turn_lean)
+    neck_rot = _rot("Y", heading_deg + 0.3 * counter) @ _rot("X", 0.4 * lean) @ _rot("Z", -0.3 * turn_lean)
+    head_rot = _rot("Y", heading_deg) @ _rot("X", -4.0 + 0.2 * lean)
+    up = np.array([0.0, 1.0, 0.0])
+    spine = hips + _apply(lumbar_rot, body.lower_back * up)
+    chest = spine + _apply(chest_rot, body.upper_back * up)
+    neck = chest + _apply(neck_rot, body.neck * up)
+    positions[:, J["Spine"]], positions[:, J["Spine1"]], positions[:, J["Neck1"]] = spine, chest, neck
+    positions[:, J["Head"]] = neck + _apply(head_rot, body.head * np.array([0.0, 0.97, 0.25]))
+
+    amplitude = active * style.arm_swing * ((1 - running) * (8.0 + 9.0 * np.minimum(planar, 2.0))
+                                            + running * (28.0 + 4.0 * planar))
+    elbow = 12.0 + style.elbow_bend + running * 75.0
+    for side, sign, asym in (("Left", 1.0, 1 + style.asymmetry), ("Right", -1.0, 1 - style.asymmetry)):
+        foot_u = feet[side]["u"]
+        swing = asym * amplitude * np.cos(2 * np.pi * (foot_u - feet[side]["beta"]))   # forward +
+        swing *= np.sign(forward + 0.3)                      # arms follow the legs backwards too
+        abduct = sign * (6.0 + 6.0 * running)
+        flex = elbow + 0.4 * np.maximum(swing, 0)
+        shoulder = chest + _apply(chest_rot, np.array(body.shoulder_offset) * [sign, 1, 1])
+        upper_rot = chest_rot @ _rot("X", -swing) @ _rot("Z", np.broadcast_to(abduct, swing.shape))
+        fore_rot = upper_rot @ _rot("X", -flex)
+        hand_rot = fore_rot @ _rot("X", np.broadcast_to(-10.0, swing.shape))
+        elbow_pos = shoulder + _apply(upper_rot, -body.upper_arm * up)
+        wrist = elbow_pos + _apply(fore_rot, -body.forearm * up)
+        positions[:, J[f"{side}Arm"]] = shoulder
+        positions[:, J[f"{side}ForeArm"]] = elbow_pos
+        positions[:, J[f"{side}Hand"]] = wrist
+        positions[:, J[f"{side}HandIndex1"]] = wrist + _apply(hand_rot, -body.hand * up)
+
+    keep = slice(pad, frames - pad)
+    return Motion(positions[keep], control, contacts[keep], fps, body, style)
+
+
+def random_motion(duration_s: float = 10.0, fps: float = 20.0, seed: int = 0,
+                  body: Body | None = None, style: Style | None = None) -> Motion:
+    """A clip with a random control trajectory, body and style, all drawn from ``seed``."""
+    rng = np.random.default_rng(seed)
+    control = random_control(duration_s, fps, rng)
+    body = body or Body.random(rng)
+    style = style or Style.random(rng)
+    heading = rng.uniform(-np.pi, np.pi)
+    return generate(control, fps, body, style, start=np.array([0.0, 0.0, heading]),
+                    phase=rng.uniform())
+
+
+def dataset(n_clips: int = 60, duration_s: float = 10.0, fps: float = 20.0,
+            seed: int = 0) -> list[tuple[str, Motion]]:
+    """``n_clips`` random clips named ``synthetic_000``, ... (seeds ``seed``, ``seed + 1``, ...)."""
+    if n_clips < 1:
+        raise ValueError(f"n_clips must be >= 1, got {n_clips}")
+    return [(f"synthetic_{seed + i:03d}", random_motion(duration_s, fps, seed + i))
+            for i in range(n_clips)]
