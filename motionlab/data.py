@@ -22,7 +22,7 @@ import torch
 
 from . import bvh as bvh_io
 from .filters import resample
-from .representation import (FACING_SMOOTHING_S, mirror_features, reverse_features,
+from .representation import (FACING_SMOOTHING_S, POSE, mirror_features, reverse_features,
                              to_features)
 from .skeleton import CMU_JOINTS, CMU_TO_LOCOMOTION, LOCOMOTION
 
@@ -109,15 +109,18 @@ def load_bvh(path: str | Path, fps: float | None = None, unit_m: float = CMU_UNI
 
 
 def load(source: str | Path | Iterable[str | Path] = "synthetic", fps: float = 20.0,
-         pattern: str = "*.bvh", n_clips: int = 40, duration_s: float = 12.0,
-         seed: int = 0) -> list[Clip]:
-    """Load clips: ``"synthetic"``, a folder of BVH files, one file, or a list of files.
+         n_clips: int = 40, duration_s: float = 12.0, seed: int = 0) -> list[Clip]:
+    """Load clips: ``"synthetic"``, a folder of motion capture, one file, or a list of files.
 
-    ``"synthetic"`` generates ``n_clips`` clips of ``duration_s`` seconds with
-    :mod:`motionlab.synthetic` (seeded by ``seed``): the built-in data every notebook uses
-    when no motion capture is given. Files come back sorted by name, resampled to ``fps``.
-    Either way the result is world positions, and everything after this goes through the
-    same code.
+    * ``"synthetic"`` generates ``n_clips`` clips of ``duration_s`` seconds with
+      :mod:`motionlab.synthetic` (seeded by ``seed``): the built-in data every notebook
+      uses when no motion capture is given.
+    * A folder is read for CMU-style ``.bvh`` files and CMU ``.amc`` files (each next to
+      its subject's ``.asf``, as :func:`download_cmu` leaves them); one trial must not be
+      there in both formats.
+
+    Files come back sorted by name, resampled to ``fps``. Either way the result is world
+    positions, and everything after this goes through the same code.
     """
     if isinstance(source, str) and source == "synthetic":
         from . import synthetic
@@ -126,16 +129,38 @@ def load(source: str | Path | Iterable[str | Path] = "synthetic", fps: float = 2
     if isinstance(source, (str, Path)):
         path = Path(source)
         if path.is_dir():
-            files = sorted(path.glob(pattern))
+            files = sorted([*path.glob("*.bvh"), *path.glob("*.amc")])
             if not files:
-                raise ValueError(f"{path}: no files matching {pattern!r}")
+                raise ValueError(f"{path}: no .bvh or .amc files")
         elif path.is_file():
             files = [path]
         else:
             raise ValueError(f"source: {str(source)!r} is neither 'synthetic', a folder nor a file")
     else:
         files = sorted(Path(f) for f in source)
-    return [load_bvh(f, fps=fps) for f in files]
+    stems = [f.stem for f in files]
+    twice = sorted({stem for stem in stems if stems.count(stem) > 1})
+    if twice:
+        raise ValueError(f"source: trials in two formats ({', '.join(twice)}): keep one format per trial")
+    return [_load_file(f, fps) for f in files]
+
+
+def _load_file(path: Path, fps: float) -> Clip:
+    if path.suffix.lower() == ".amc":
+        from .asfamc import load_clip
+        return load_clip(path, fps=fps)
+    if path.suffix.lower() == ".bvh":
+        return load_bvh(path, fps=fps)
+    raise ValueError(f"{path}: unknown motion file type (expected .bvh or .amc)")
+
+
+def download_cmu(trials=None, dest: str | Path = "data/cache/cmu", **options) -> list[Path]:
+    """Fetch CMU trials (ASF/AMC) from CMU's site into ``dest``; see :func:`motionlab.download.download_cmu`.
+
+    ``data.load(dest)`` then loads them. With no ``trials``, a curated set of locomotion.
+    """
+    from .download import download_cmu as fetch
+    return fetch(trials, dest, **options)
 
 
 def split_clips(clips: Sequence[Clip], fractions: tuple[float, float, float] = (0.8, 0.1, 0.1),
@@ -212,12 +237,19 @@ class Normalizer:
         self.mean, self.std = mean, std
 
     @classmethod
-    def fit(cls, data: np.ndarray, min_std: float = 1e-4) -> "Normalizer":
-        """Fit on ``data`` ``(..., D)``; a std below ``min_std`` counts as constant."""
+    def fit(cls, data: np.ndarray, min_std: float = 1e-4, shared: slice | None = None) -> "Normalizer":
+        """Fit on ``data`` ``(..., D)``; a std below ``min_std`` counts as constant.
+
+        ``shared``: columns that get one common std, the mean of their stds (Holden et al.
+        do this for all joint coordinates, so that distances between poses keep their
+        meaning and barely-moving joints are not blown up, noise and all).
+        """
         data = np.asarray(data, dtype=np.float64).reshape(-1, np.shape(data)[-1])
         if len(data) == 0:
             raise ValueError("data: cannot fit a Normalizer on no frames")
         std = data.std(axis=0)
+        if shared is not None:
+            std[shared] = std[shared].mean()
         return cls(data.mean(axis=0), np.where(std < min_std, 1.0, std))
 
     def _cast(self, x, value: np.ndarray):
@@ -319,18 +351,23 @@ def prepare(clips: Sequence[Clip], window_s: float = 4.0, stride_s: float | None
             fractions: tuple[float, float, float] = (0.8, 0.1, 0.1),
             augment_with: Sequence[str] = ("mirror", "reverse"), seed: int = 0,
             short_clips: str = "drop", source: str = "",
-            facing_smoothing_s: float = FACING_SMOOTHING_S) -> MotionData:
+            facing_smoothing_s: float = FACING_SMOOTHING_S,
+            normalization: str = "per_feature") -> MotionData:
     """Turn clips into normalised train/validation/test window data sets.
 
     Clips are split by clip (:func:`split_clips`), converted to features, augmented
     (training split only), cut into windows of ``window_s`` seconds every ``stride_s``
     seconds (default half a window), and normalised with statistics of the training
-    windows. A clip shorter than one window is dropped and listed in
+    windows: ``normalization="per_feature"`` standardises every feature on its own (Motegi
+    §II, MoGlow), ``"shared_pose"`` gives all 63 pose coordinates one common std (Holden).
+    A clip shorter than one window is dropped and listed in
     ``description["dropped_short"]`` (``short_clips="drop"``) or raises ``ValueError``
     (``short_clips="error"``).
     """
     if not clips:
         raise ValueError("clips: no clips to prepare")
+    if normalization not in ("per_feature", "shared_pose"):
+        raise ValueError(f"normalization: expected 'per_feature' or 'shared_pose', got {normalization!r}")
     if short_clips not in ("drop", "error"):
         raise ValueError(f"short_clips: expected 'drop' or 'error', got {short_clips!r}")
     fps_values = {c.fps for c in clips}
@@ -357,13 +394,14 @@ def prepare(clips: Sequence[Clip], window_s: float = 4.0, stride_s: float | None
             per_clip += [cut_windows(c, length, stride) for c in copies]
         windows[split] = (np.concatenate(per_clip) if per_clip
                           else np.zeros((0, length, feats.shape[1])))
-    normalizer = Normalizer.fit(windows["train"])
+    normalizer = Normalizer.fit(windows["train"], shared=POSE if normalization == "shared_pose" else None)
     datasets = {s: MotionDataset(normalizer.normalize(w)) for s, w in windows.items()}
     description = {
         "source": source or _describe_sources(clips),
         "fps": fps, "window_frames": length, "stride_frames": stride,
         "augment": list(augment_with), "seed": seed, "fractions": list(fractions),
-        "facing_smoothing_s": facing_smoothing_s, "skeleton": list(LOCOMOTION.names),
+        "facing_smoothing_s": facing_smoothing_s, "normalization": normalization,
+        "skeleton": list(LOCOMOTION.names),
         "clips": {s: [c.name for c in m] for s, m in splits.items()},
         "dropped_short": short,
     }

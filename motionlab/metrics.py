@@ -19,11 +19,13 @@ def _check_same(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return a, b
 
 
-def pose_error(pred_features: np.ndarray, true_features: np.ndarray) -> float:
+def pose_error(pred_features: np.ndarray, true_features: np.ndarray,
+               joints: list[int] | None = None) -> float:
     """Mean per-joint position error in the root frame (Habibie's *pose error*), metres.
 
     Takes features ``(..., frames, 66)`` (or just the 63 pose values): the translation and
-    rotation of the character are ignored, only the body pose counts.
+    rotation of the character are ignored, only the body pose counts. ``joints``: average
+    over these joint indices only (default: all).
     """
     p = np.asarray(pred_features)[..., POSE]
     t = np.asarray(true_features)[..., POSE]
@@ -31,7 +33,8 @@ def pose_error(pred_features: np.ndarray, true_features: np.ndarray) -> float:
         raise ValueError(f"expected features (..., {N_POSE}+), got {np.shape(pred_features)} "
                          f"and {np.shape(true_features)}")
     shape = p.shape[:-1] + (N_POSE // 3, 3)
-    return float(np.linalg.norm(p.reshape(shape) - t.reshape(shape), axis=-1).mean())
+    distances = np.linalg.norm(p.reshape(shape) - t.reshape(shape), axis=-1)
+    return float((distances if joints is None else distances[..., list(joints)]).mean())
 
 
 def motion_error(pred_positions: np.ndarray, true_positions: np.ndarray) -> float:
@@ -41,6 +44,22 @@ def motion_error(pred_positions: np.ndarray, true_positions: np.ndarray) -> floa
     """
     p, t = _check_same(pred_positions, true_positions)
     return float(np.linalg.norm(p - t, axis=-1).mean())
+
+
+def window_errors(pred_features: np.ndarray, true_features: np.ndarray, fps: float) -> dict[str, float]:
+    """Pose and motion error (metres) of windows of features ``(windows, frames, 66)``.
+
+    Both are turned into world positions from the same start (the origin, facing +z), so
+    the *motion error* also counts the drift that errors in the control cause.
+    """
+    from .representation import to_positions
+    pred, true = np.asarray(pred_features), np.asarray(true_features)
+    if pred.shape != true.shape or pred.ndim != 3:
+        raise ValueError(f"expected two (windows, frames, features) arrays of one shape, "
+                         f"got {pred.shape} and {true.shape}")
+    pred_world = np.stack([to_positions(w, fps) for w in pred])
+    true_world = np.stack([to_positions(w, fps) for w in true])
+    return {"pose error (m)": pose_error(pred, true), "motion error (m)": motion_error(pred_world, true_world)}
 
 
 def foot_skating(positions: np.ndarray, fps: float, feet: tuple[int, ...] = FEET,

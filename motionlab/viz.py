@@ -274,3 +274,53 @@ def plot_frame(positions: np.ndarray, frame: int, fps: float, fig=None, title: s
     ax.plot(root[-1:, 2], root[-1:, 0], "o", color="tab:orange", ms=8)
     ax.set_title("path from above")
     return fig
+
+
+def plot_history(history, keys: Sequence[str] = ("loss",), ax=None, log: bool = True):
+    """Training curves from a :class:`motionlab.training.History`: every step (faint),
+    the mean of each epoch (solid) and validation after each epoch (dashed)."""
+    if ax is None:
+        ax = plt.figure(figsize=(7, 3.5)).add_subplot()
+    for k, key in enumerate(keys):
+        color = f"C{k}"
+        steps, values = history.series(key, "train")
+        ax.plot(steps, values, color=color, alpha=0.25, lw=0.7)
+        epochs = np.array([row["epoch"] for row in history.train if key in row])
+        ends = [steps[epochs == e].max() for e in np.unique(epochs)]
+        means = [values[epochs == e].mean() for e in np.unique(epochs)]
+        ax.plot(ends, means, color=color, label=f"{key} (training)")
+        if history.val and any(key in row for row in history.val):
+            vsteps, vvalues = history.series(key, "val")
+            ax.plot(vsteps, vvalues, "--", color=color, label=f"{key} (validation)")
+    ax.set_xlabel("step")
+    if log:
+        ax.set_yscale("log")
+    ax.legend()
+    ax.grid(True, color="0.92")
+    return ax
+
+
+def plot_conv_filters(weight, feature_names: Sequence[str], n: int = 6, fps: float | None = None):
+    """The ``n`` strongest filters of a temporal convolution, ``weight`` ``(filters, features, width)``,
+    as heat maps of feature (rows) against time offset (columns). Red and blue are positive and
+    negative weights. Returns the figure."""
+    weight = np.asarray(weight.detach().cpu() if hasattr(weight, "detach") else weight)
+    if weight.ndim != 3 or weight.shape[1] != len(feature_names):
+        raise ValueError(f"weight: expected (filters, {len(feature_names)}, width), got {weight.shape}")
+    order = np.argsort(-np.abs(weight).sum(axis=(1, 2)))[:n]
+    fig, axes = plt.subplots(1, len(order), figsize=(1.6 * len(order) + 1.5, 6), sharey=True)
+    axes = np.atleast_1d(axes)
+    width = weight.shape[2]
+    offsets = np.arange(width) - width // 2
+    for ax, index in zip(axes, order):
+        w = weight[index]
+        limit = np.abs(w).max()
+        ax.imshow(w, aspect="auto", cmap="RdBu_r", vmin=-limit, vmax=limit,
+                  extent=(offsets[0] - 0.5, offsets[-1] + 0.5, len(feature_names) - 0.5, -0.5))
+        ax.set_title(f"filter {index}", fontsize=9)
+        ax.set_xlabel("frames" if fps is None else f"frames ({1000 / fps:.0f} ms)", fontsize=8)
+    step = 3
+    axes[0].set_yticks(range(0, len(feature_names), step))
+    axes[0].set_yticklabels([name.split(".")[0] for name in feature_names[::step]], fontsize=7)
+    fig.tight_layout()
+    return fig

@@ -129,10 +129,30 @@ def test_load_bvh_maps_to_21_joints_resamples_and_drops_tpose(tmp_path):
 def test_load_errors_name_the_problem(tmp_path):
     with pytest.raises(ValueError, match="neither .synthetic., a folder nor a file"):
         data.load(tmp_path / "missing")
-    with pytest.raises(ValueError, match="no files matching"):
+    with pytest.raises(ValueError, match="no .bvh or .amc files"):
         data.load(tmp_path)
     clip = cmu_like_bvh(tmp_path / "x.bvh")
     clip.joint_names[4] = "LeftAnkle"
     bvh.write(tmp_path / "renamed.bvh", clip)
     with pytest.raises(ValueError, match="renamed.bvh: not a CMU-style skeleton, missing joints LeftFoot"):
         data.load_bvh(tmp_path / "renamed.bvh")
+
+
+def test_a_folder_of_asf_amc_loads_like_a_folder_of_bvh(tmp_path):
+    from conftest import CMU_DIR
+    asfamc_dir = CMU_DIR.parent / "cmu_asfamc"
+    if not (asfamc_dir / "16.asf").is_file():
+        pytest.skip(f"CMU ASF/AMC files not found in {asfamc_dir}")
+    import shutil
+    for name in ("16.asf", "16_15.amc", "16_35.amc"):
+        shutil.copy(asfamc_dir / name, tmp_path / name)
+    from_amc = data.load(tmp_path, fps=20)
+    from_bvh = data.load([CMU_DIR / "16_15.bvh", CMU_DIR / "16_35.bvh"], fps=20)
+    assert [c.name for c in from_amc] == ["16_15", "16_35"]
+    legs = [0, 1, 2, 3, 4, 5, 6, 7, 8]
+    for a, b in zip(from_amc, from_bvh):
+        assert a.positions.shape == b.positions.shape and a.fps == b.fps
+        assert np.abs(a.positions[:, legs] - b.positions[:, legs]).max() < 1e-3
+    shutil.copy(CMU_DIR / "16_15.bvh", tmp_path / "16_15.bvh")
+    with pytest.raises(ValueError, match=r"trials in two formats \(16_15\)"):
+        data.load(tmp_path)

@@ -1,0 +1,8 @@
+"""One file per model, each readable top to bottom beside its paper.
+
+:data:`MODELS` maps the names the command line (``python -m motionlab.train NAME``) knows
+to ``(module, model class, config class)``.
+"""
+MODELS = {
+    "conv_ae": ("motionlab.models.conv_ae", "ConvAutoencoder", "ConvAEConfig"),
+}

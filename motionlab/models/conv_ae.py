@@ -1,0 +1,178 @@
+"""Temporal convolutional autoencoder (Motegi et al. 2018, §III; Holden et al. 2015).
+
+One convolutional layer learns a *motion manifold*: windows of motion are encoded into
+half as many frames of ``filters`` features, and decoded back. Motegi §III-A, with
+``x`` a window of normalised features, ``*`` convolution over time with filters that span
+all features, ``Ψ`` temporal max pooling and ``Ψ'`` upsampling:
+
+    encoder   Φ(x)  = Ψ(ReLU(x * W + b))                (120 x 58 -> 60 x 32 in the paper)
+    decoder   Φ'(y) = Ψ'(y) * W' + b'                   (60 x 32 -> 120 x 58)
+    cost      C     = Σ_n ||x_n - Φ'(Φ(x_n))||²         (§III-B; here the mean, not the sum)
+
+Holden's options worth teaching are switches on :class:`ConvAEConfig`: dropout on the
+input (training the autoencoder to *denoise*, which is what makes projecting corrupted
+motion back onto the manifold work), the choice of depooling, and an L1 penalty on the
+weights. Tensors are ``(batch, frames, features)`` outside; the convolutions transpose
+to ``(batch, channels, frames)`` inside.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import torch
+import torch.nn.functional as F
+from torch import nn
+
+
+@dataclass(frozen=True)
+class ConvAEConfig:
+    """Sizes and options. Defaults: a laptop-sized model at 20 fps; :meth:`paper` is Motegi's.
+
+    Attributes:
+        n_features: features per frame (66: pose + control).
+        window: frames per window (must be even: one pooling halves it).
+        fps: frames per second of the data the model expects.
+        filters: number of convolution filters, the manifold's features per frame.
+        width: filter width in frames (odd, so padding keeps the length).
+        input_dropout: probability that a joint (all three coordinates) or a control channel
+            is zeroed while training (Holden: a denoising autoencoder).
+        input_noise: standard deviation of Gaussian noise added to the normalised input
+            while training.
+        depool: how ``Ψ'`` doubles the frames: ``"nearest"`` (repeat each frame),
+            ``"linear"`` (interpolate) or ``"unpool"`` (put each value back where the max
+            came from: only possible when decoding a window just encoded).
+        l1: weight of the L1 penalty on the convolution weights (Holden: sparse filters).
+    """
+
+    n_features: int = 66
+    window: int = 80
+    fps: float = 20.0
+    filters: int = 32
+    width: int = 11
+    input_dropout: float = 0.2
+    input_noise: float = 0.0
+    depool: str = "nearest"
+    l1: float = 1e-5
+
+    def __post_init__(self):
+        if self.window % 2 or self.window < 2:
+            raise ValueError(f"window: must be even and >= 2 (pooling halves it), got {self.window}")
+        if self.width % 2 == 0:
+            raise ValueError(f"width: must be odd so the output keeps its length, got {self.width}")
+        if self.depool not in ("nearest", "linear", "unpool"):
+            raise ValueError(f"depool: expected 'nearest', 'linear' or 'unpool', got {self.depool!r}")
+        if not 0 <= self.input_dropout < 1:
+            raise ValueError(f"input_dropout: expected 0 <= p < 1, got {self.input_dropout}")
+
+    @classmethod
+    def paper(cls, **changes) -> "ConvAEConfig":
+        """Motegi §III-A: 120-frame windows at 30 fps, 32 filters 15 frames wide, plain MSE."""
+        return replace(cls(window=120, fps=30.0, filters=32, width=15, input_dropout=0.0, l1=0.0),
+                       **changes)
+
+
+class ConvAutoencoder(nn.Module):
+    """Motegi's one-layer temporal convolutional autoencoder.
+
+    ``forward(x)`` reconstructs ``x`` ``(batch, window, n_features)``; :meth:`encode` gives
+    the manifold features ``(batch, window // 2, filters)`` and :meth:`decode` maps them
+    back. The VAE of notebook 03 is trained on these features.
+    """
+
+    def __init__(self, config: ConvAEConfig = ConvAEConfig()):
+        super().__init__()
+        self.config = config
+        pad = config.width // 2
+        # Padding repeats the first and last frames: zero padding would look like a sudden
+        # stop at both ends of every window, and the reconstruction there suffers.
+        # W, b: filters spanning all features, sliding over time (§III-A)
+        self.encoder = nn.Conv1d(config.n_features, config.filters, config.width, padding=pad, padding_mode="replicate")
+        # W', b': back from the manifold to every feature
+        self.decoder = nn.Conv1d(config.filters, config.n_features, config.width, padding=pad, padding_mode="replicate")
+
+    def _check(self, x: torch.Tensor) -> None:
+        if x.ndim != 3 or x.shape[-1] != self.config.n_features or x.shape[1] % 2:
+            raise ValueError(f"x: expected (batch, even frames, {self.config.n_features}), "
+                             f"got {tuple(x.shape)}")
+
+    def encode(self, x: torch.Tensor, return_indices: bool = False):
+        """Φ(x) = Ψ(ReLU(x * W + b)): ``(batch, frames, n_features)`` -> ``(batch, frames // 2, filters)``."""
+        self._check(x)
+        if self.training:
+            x = self.corrupt(x)
+        x = x.transpose(1, 2)                                  # (batch, features, frames)
+        hidden = F.relu(self.encoder(x))
+        pooled, indices = F.max_pool1d(hidden, 2, return_indices=True)   # Ψ
+        pooled = pooled.transpose(1, 2)
+        return (pooled, indices) if return_indices else pooled
+
+    def corrupt(self, x: torch.Tensor) -> torch.Tensor:
+        """Training-time corruption (Holden: a *denoising* autoencoder): whole joints (their
+        three coordinates) and control channels are zeroed (set to the data's mean) with
+        probability ``input_dropout``, and Gaussian noise of ``input_noise`` standard
+        deviations is added."""
+        if self.config.input_dropout > 0:
+            n_joints = (x.shape[-1] - 3) // 3
+            keep_joint = torch.rand(x.shape[0], 1, n_joints, 1, device=x.device) >= self.config.input_dropout
+            keep = torch.cat([keep_joint.expand(-1, -1, -1, 3).reshape(x.shape[0], 1, -1),
+                              torch.rand(x.shape[0], 1, 3, device=x.device) >= self.config.input_dropout], -1)
+            x = x * keep / (1 - self.config.input_dropout)
+        if self.config.input_noise > 0:
+            x = x + self.config.input_noise * torch.randn_like(x)
+        return x
+
+    def decode(self, y: torch.Tensor, indices: torch.Tensor | None = None) -> torch.Tensor:
+        """Φ'(y) = Ψ'(y) * W' + b': ``(batch, frames, filters)`` -> ``(batch, 2 * frames, n_features)``."""
+        if y.ndim != 3 or y.shape[-1] != self.config.filters:
+            raise ValueError(f"y: expected (batch, frames, {self.config.filters}), got {tuple(y.shape)}")
+        y = y.transpose(1, 2)
+        if self.config.depool == "unpool":
+            if indices is None:
+                raise ValueError("indices: depool='unpool' needs the pooling indices from encode(x, "
+                                 "return_indices=True); decoding new features needs another depool")
+            upsampled = F.max_unpool1d(y, indices, 2, output_size=(y.shape[-1] * 2,))
+        elif self.config.depool == "linear":
+            upsampled = F.interpolate(y, scale_factor=2, mode="linear", align_corners=False)
+        else:
+            upsampled = F.interpolate(y, scale_factor=2, mode="nearest")
+        return self.decoder(upsampled).transpose(1, 2)
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        """Reconstruct ``x`` ``(batch, frames, n_features)`` through the manifold."""
+        if self.config.depool == "unpool":
+            y, indices = self.encode(x, return_indices=True)
+            return self.decode(y, indices)
+        return self.decode(self.encode(x))
+
+    def project(self, x: torch.Tensor) -> torch.Tensor:
+        """Holden's use of the manifold: map (possibly corrupted) motion to the nearest
+        motion the autoencoder can represent. The same as ``forward`` in eval mode."""
+        was_training = self.training
+        self.eval()
+        with torch.no_grad():
+            out = self(x)
+        self.train(was_training)
+        return out
+
+    def loss(self, batch: torch.Tensor) -> dict[str, torch.Tensor]:
+        """Mean squared reconstruction error (§III-B) plus Holden's L1 weight penalty."""
+        reconstruction = F.mse_loss(self(batch), batch)
+        l1 = self.encoder.weight.abs().sum() + self.decoder.weight.abs().sum()
+        return {"loss": reconstruction + self.config.l1 * l1, "mse": reconstruction}
+
+    def trace(self, x: torch.Tensor) -> list[tuple[str, tuple[int, ...]]]:
+        """The shape of ``x`` at every stage, for a walk-through of the architecture."""
+        with torch.no_grad():
+            inside = x.transpose(1, 2)
+            conv = self.encoder(inside)
+            pooled = F.max_pool1d(F.relu(conv), 2)
+            up = F.interpolate(pooled, scale_factor=2, mode="nearest")
+            out = self.decoder(up)
+        return [("input window (batch, frames, features)", tuple(x.shape)),
+                ("transposed for Conv1d (batch, features, frames)", tuple(inside.shape)),
+                (f"conv, {self.config.filters} filters of {self.config.width} frames x all features",
+                 tuple(conv.shape)),
+                ("ReLU + max pool over 2 frames: the manifold", tuple(pooled.shape)),
+                ("depool: twice the frames again", tuple(up.shape)),
+                (f"conv back to {self.config.n_features} features", tuple(out.shape)),
+                ("transposed back (batch, frames, features)", tuple(out.transpose(1, 2).shape))]

@@ -1,0 +1,141 @@
+"""The shared training loop, checkpoints and the command line."""
+from dataclasses import dataclass
+
+import numpy as np
+import pytest
+import torch
+from torch import nn
+
+from motionlab import data, training
+from motionlab.models.conv_ae import ConvAEConfig, ConvAutoencoder
+
+
+@dataclass(frozen=True)
+class LineConfig:
+    n_features: int = 4
+    scale: float = 1.0
+
+
+class Line(nn.Module):
+    """A linear map learning y = 2x on (batch, frames, features) windows."""
+
+    def __init__(self, config=LineConfig()):
+        super().__init__()
+        self.config = config
+        self.weight = nn.Parameter(torch.zeros(()))
+
+    def loss(self, batch):
+        error = ((self.weight * batch - 2 * batch * self.config.scale) ** 2).mean()
+        return {"loss": error, "weight": self.weight}
+
+
+def windows(n=64, seed=0):
+    return data.MotionDataset(np.random.default_rng(seed).normal(size=(n, 8, 4)))
+
+
+def test_training_reduces_the_loss_and_logs_history():
+    model = Line()
+    history = training.train(model, (windows(), windows(16, 1)),
+                             training.TrainConfig(epochs=20, lr=0.2, progress=False))
+    steps, losses = history.series("loss")
+    assert len(steps) == 20 * 2 and losses[-1] < 0.01 * losses[0]
+    assert abs(model.weight.item() - 2) < 0.1
+    assert len(history.val) == 20 and history.last("loss", "val") < 0.01
+    assert history.train[0]["lr"] > history.train[-1]["lr"]            # cosine schedule
+    assert history.seconds > 0 and not model.training
+    with pytest.raises(ValueError, match="'nope' was not logged"):
+        history.series("nope")
+
+
+def test_seeded_training_is_reproducible():
+    def run():
+        torch.manual_seed(123)
+        model = ConvAutoencoder(ConvAEConfig(window=8, filters=4, width=3))
+        history = training.train(model, windows(32, 3).windows.repeat(1, 1, 17)[..., :66],
+                                 training.TrainConfig(epochs=2, batch_size=8, seed=5, progress=False))
+        return history.series("loss")[1]
+    assert np.array_equal(run(), run())
+
+
+def test_max_steps_and_continuing_a_history():
+    model = Line()
+    config = training.TrainConfig(epochs=5, batch_size=16, lr=0.05, max_steps=3, progress=False)
+    history = training.train(model, windows(), config)
+    assert len(history.train) == 3
+    history = training.train(model, windows(), config, history=history)
+    assert [row["step"] for row in history.train] == list(range(6))
+
+
+def test_nan_guard_stops_with_a_clear_message():
+    model = Line()
+    bad = windows()
+    bad.windows[5, 3, 2] = float("nan")
+    with pytest.raises(training.NonFiniteLossError, match=r"the loss became nan at epoch 0.*lower learning rate"):
+        training.train(model, bad, training.TrainConfig(epochs=1, batch_size=64, progress=False))
+
+
+def test_bad_train_configs_are_value_errors():
+    with pytest.raises(ValueError, match="schedule"):
+        training.TrainConfig(schedule="linear")
+    with pytest.raises(ValueError, match="positive"):
+        training.TrainConfig(epochs=0)
+    with pytest.raises(ValueError, match="training set is empty"):
+        training.train(Line(), data.MotionDataset(np.zeros((0, 8, 4))), training.TrainConfig(progress=False))
+
+
+@pytest.fixture(scope="module")
+def prepared():
+    return data.prepare(data.load("synthetic", fps=20, n_clips=6, duration_s=6), window_s=2.0)
+
+
+def test_checkpoint_round_trip(tmp_path, prepared):
+    config = ConvAEConfig(window=40, filters=8)
+    model = ConvAutoencoder(config)
+    history = training.train(model, prepared, training.TrainConfig(epochs=1, progress=False))
+    path = tmp_path / "model.pt"
+    training.save_checkpoint(path, model, prepared, history)
+    loaded = training.load_checkpoint(path, config=config)
+    assert isinstance(loaded.model, ConvAutoencoder) and loaded.model.config == config
+    x = prepared.test.windows[:2]
+    assert torch.equal(loaded.model(x), model(x))
+    assert np.array_equal(loaded.normalizer.mean, prepared.normalizer.mean)
+    assert loaded.description["clips"] == prepared.description["clips"]
+    assert loaded.history.series("loss")[1].tolist() == history.series("loss")[1].tolist()
+
+
+def test_loading_into_the_wrong_config_is_a_clear_error(tmp_path, prepared):
+    path = tmp_path / "model.pt"
+    training.save_checkpoint(path, ConvAutoencoder(ConvAEConfig(window=40, filters=8)), prepared)
+    with pytest.raises(ValueError, match=r"model.pt: trained with another config; filters: checkpoint 8 != requested 16"):
+        training.load_checkpoint(path, config=ConvAEConfig(window=40, filters=16))
+    with pytest.raises(ValueError, match="holds a ConvAEConfig, not a LineConfig"):
+        training.load_checkpoint(path, config=LineConfig())
+    (tmp_path / "junk.pt").write_bytes(b"not a checkpoint")
+    with pytest.raises(ValueError, match="junk.pt: cannot read checkpoint"):
+        training.load_checkpoint(tmp_path / "junk.pt")
+
+
+def test_train_or_load_trains_once(tmp_path, prepared):
+    path = tmp_path / "ae.pt"
+    config = ConvAEConfig(window=40, filters=8)
+    fast = training.TrainConfig(epochs=1, progress=False)
+    _, first = training.train_or_load(path, ConvAutoencoder(config), prepared, fast)
+    stamp = path.stat().st_mtime_ns
+    model, again = training.train_or_load(path, ConvAutoencoder(config), prepared, fast)
+    assert path.stat().st_mtime_ns == stamp and again.train == first.train
+    other = data.prepare(data.load("synthetic", fps=20, n_clips=6, duration_s=6, seed=9), window_s=2.0)
+    training.train_or_load(path, ConvAutoencoder(config), other, fast)     # other data: retrains
+    assert path.stat().st_mtime_ns != stamp
+
+
+def test_command_line_trains_and_saves(tmp_path, capsys):
+    from motionlab import train as cli
+    out = tmp_path / "cli.pt"
+    cli.main(["conv_ae", "--epochs", "1", "--synthetic-clips", "5", "--set", "filters=8",
+              "--out", str(out)])
+    printed = capsys.readouterr().out
+    assert "saved" in printed and "filters=8" in printed
+    assert training.load_checkpoint(out).model.config.filters == 8
+    with pytest.raises(SystemExit):
+        cli.main(["conv_ae", "--set", "filters=many"])
+    assert "is not a int" in capsys.readouterr().err
