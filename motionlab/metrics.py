@@ -121,6 +121,39 @@ def diversity(samples: np.ndarray) -> np.ndarray:
     return np.linalg.norm(samples - mean, axis=-1).mean(axis=(0, 2))
 
 
+def describe_motion(features: np.ndarray) -> dict[str, np.ndarray]:
+    """A few interpretable numbers per window of features ``(n, frames, 66)``, each ``(n,)``.
+
+    * ``hand height (m)``: mean height of both hands above the floor;
+    * ``arm swing (m)``: how far the hands swing forward and back (std of their z);
+    * ``knee bend (deg)``: mean flexion of both knees (0 = straight leg);
+    * ``leg swing (m)``: how far the feet move apart along the walking direction (std of
+      left ankle z minus right ankle z: the stride);
+    * ``forward speed (m/s)``, ``turning (rad/s)``: means of the control.
+    """
+    features = np.asarray(features, dtype=np.float64)
+    if features.ndim != 3 or features.shape[-1] != N_POSE + 3:
+        raise ValueError(f"features: expected (n, frames, {N_POSE + 3}), got {features.shape}")
+    pose = features[..., POSE].reshape(features.shape[:2] + (N_POSE // 3, 3))
+    j = LOCOMOTION.index
+    hands = pose[..., [j("LeftHand"), j("RightHand")], :]
+
+    def knee_bend(hip, knee, ankle):
+        thigh, shin = pose[..., hip, :] - pose[..., knee, :], pose[..., ankle, :] - pose[..., knee, :]
+        cos = (thigh * shin).sum(-1) / (np.linalg.norm(thigh, axis=-1) * np.linalg.norm(shin, axis=-1) + 1e-9)
+        return 180.0 - np.degrees(np.arccos(np.clip(cos, -1, 1)))
+
+    knees = 0.5 * (knee_bend(j("LeftUpLeg"), j("LeftLeg"), j("LeftFoot"))
+                   + knee_bend(j("RightUpLeg"), j("RightLeg"), j("RightFoot")))
+    stride = pose[..., j("LeftFoot"), 2] - pose[..., j("RightFoot"), 2]
+    return {"hand height (m)": hands[..., 1].mean(axis=(1, 2)),
+            "arm swing (m)": hands[..., 2].std(axis=1).mean(axis=1),
+            "knee bend (deg)": knees.mean(axis=1),
+            "leg swing (m)": stride.std(axis=1),
+            "forward speed (m/s)": features[..., N_POSE].mean(axis=1),
+            "turning (rad/s)": features[..., N_POSE + 2].mean(axis=1)}
+
+
 CMU_REFERENCE = {"foot skating (cm/s)": 1.97, "bone-length drift (%)": 0.092}
 """Medians over the 55 real CMU clips of ``../shared/mocap/cmu`` at 20 fps, as printed by
 ``benchmarks/real_data.py`` (and checked against the files by the tests where they exist):

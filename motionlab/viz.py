@@ -324,3 +324,48 @@ def plot_conv_filters(weight, feature_names: Sequence[str], n: int = 6, fps: flo
     axes[0].set_yticklabels([name.split(".")[0] for name in feature_names[::step]], fontsize=7)
     fig.tight_layout()
     return fig
+
+
+def plot_filmstrip(motion: np.ndarray, ax=None, n: int = 6, spacing: float = 0.45,
+                   skeleton: Skeleton = LOCOMOTION, title: str | None = None):
+    """A motion as a strip of ``n`` poses, seen from the side, left to right in time.
+
+    ``motion`` is features ``(frames, 3 * joints + 3)`` or root-local poses ``(frames,
+    joints, 3)``: every pose is drawn in its own root frame (facing right), shifted by
+    ``spacing`` metres per step, so what moves is the body, not the path. The small
+    multiples of notebook 03 are made of these. Returns the axes.
+    """
+    motion = np.asarray(motion)
+    if motion.ndim == 2:
+        motion = motion[:, : 3 * skeleton.n_joints].reshape(len(motion), skeleton.n_joints, 3)
+    if motion.ndim != 3 or motion.shape[1:] != (skeleton.n_joints, 3):
+        raise ValueError(f"motion: expected (frames, features) or (frames, {skeleton.n_joints}, 3), "
+                         f"got {np.shape(motion)}")
+    if ax is None:
+        ax = plt.figure(figsize=(0.8 * n + 0.5, 2.2)).add_subplot()
+    frames = np.linspace(0, len(motion) - 1, n).round().astype(int)
+    for k, t in enumerate(frames):
+        pose = motion[t]
+        for (parent, child), color in zip(skeleton.bones, bone_colors(skeleton)):
+            ax.plot(pose[[parent, child], 2] + k * spacing, pose[[parent, child], 1], color=color, lw=1.2)
+    ax.axhline(0, color="0.8", lw=0.8)
+    ax.set_aspect("equal")
+    ax.set_xticks([]), ax.set_yticks([])
+    for side in ("top", "right", "left", "bottom"):
+        ax.spines[side].set_visible(False)
+    if title:
+        ax.set_title(title, fontsize=8)
+    return ax
+
+
+def plot_motion(features: np.ndarray, fps: float, fig=None, title: str | None = None, n: int = 8):
+    """One window of features ``(frames, 66)`` at a glance: a side-view filmstrip of the
+    body and, beside it, the path it walks seen from above. Returns the figure."""
+    from .representation import to_positions
+    features = np.asarray(features)
+    fig = fig or plt.figure(figsize=(10, 2.6))
+    grid = fig.add_gridspec(1, 4)
+    plot_filmstrip(features, ax=fig.add_subplot(grid[0, :3]), n=n, title=title)
+    plot_trajectory(to_positions(features, fps), fps, ax=fig.add_subplot(grid[0, 3]))
+    fig.tight_layout()
+    return fig

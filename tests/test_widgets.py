@@ -1,5 +1,6 @@
 import matplotlib.pyplot as plt
 import pytest
+import torch
 
 from motionlab import data, widgets
 
@@ -26,3 +27,24 @@ def test_clip_browser_renders_headless_and_follows_its_widgets(clips, monkeypatc
         browser.figure("nope")
     with pytest.raises(ValueError, match="nothing to browse"):
         widgets.ClipBrowser([])
+
+
+def test_latent_sliders_map_probabilities_and_render_headless(clips):
+    decoded = []
+
+    def decode(z):
+        decoded.append(z.clone())
+        return clips[0].features()[None].repeat(len(z), axis=0)
+
+    sliders = widgets.LatentSliders(decode, latent=6, axes=[1, 4], fps=20)
+    z = sliders.latent_vector([0.1, 0.9], sample=2)
+    assert z.shape == (6,) and z[1] == pytest.approx(-1.2816, abs=1e-4) and z[4] == pytest.approx(1.2816, abs=1e-4)
+    assert torch.equal(z[[0, 2, 3, 5]], sliders.latent_vector([0.5, 0.5], sample=2)[[0, 2, 3, 5]])
+    fig = sliders.figure([0.3, 0.7], sample=1)
+    plt.close(fig)
+    sliders.sliders[0].value = 0.2                        # the callback decodes and redraws
+    assert len(decoded) == 2 and decoded[-1][0, 1] == pytest.approx(-0.8416, abs=1e-3)
+    with pytest.raises(ValueError, match="axes"):
+        widgets.LatentSliders(decode, latent=6, axes=[6], fps=20)
+    with pytest.raises(ValueError, match="probabilities: expected 2 values"):
+        sliders.latent_vector([0.5])
