@@ -5,4 +5,6 @@ to ``(module, model class, config class)``.
 """
 MODELS = {
     "conv_ae": ("motionlab.models.conv_ae", "ConvAutoencoder", "ConvAEConfig"),
+    "vae_lstm": ("motionlab.models.vae_lstm", "VAELSTM", "VAELSTMConfig"),
+    "lstm": ("motionlab.models.lstm", "MotionLSTM", "LSTMConfig"),
 }

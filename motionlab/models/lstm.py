@@ -1,0 +1,188 @@
+"""Autoregressive LSTM baselines for Habibie et al. 2017 (Tables 1-2): LSTM-3LR.
+
+Fragkiadaki et al.'s LSTM-3LR (2015), the strongest recurrent baseline of Habibie's
+Tables 1 and 2: a stack of LSTM layers reads one frame at a time and a linear read-out
+predicts the next frame. It is trained with teacher forcing (the true frame goes in at
+every step) and generates by feeding its own predictions back, after being *primed* with
+the first frames of a real sequence::
+
+    h_t = LSTM^3(input_t, h_{t-1});   x^_{t+1} = W h_t + b;   loss = mean ||x^_{t+1} - x_{t+1}||^2
+
+Two variants, chosen by :attr:`LSTMConfig.control`:
+
+* ``"predicted"``: the input is the frame ``x_t`` (pose and control, 66 values) and the
+  model predicts all of ``x_{t+1}``, control included. This is how Habibie adapts the
+  baselines that know no control (§4.3, Table 1). At test time the predicted control may be
+  replaced by the true one (``predict(..., control=...)``): Habibie's Table 2 protocol.
+* ``"given"``: the model is *trained* with the control: its input is ``x_t`` and the next
+  frame's control ``C_{t+1}``, and it predicts only the pose of ``x_{t+1}``.
+
+Tensors are ``(batch, frames, features)`` in the normalised units of
+:class:`motionlab.data.Normalizer`.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import torch
+import torch.nn.functional as F
+from torch import nn
+
+
+@dataclass(frozen=True)
+class LSTMConfig:
+    """Sizes and options. Defaults: a laptop-sized LSTM-3LR at 20 fps; :meth:`paper` is
+    Fragkiadaki et al.'s (three layers of 1000 units).
+
+    Attributes:
+        n_pose: pose features per frame (63).
+        n_control: control features per frame (3).
+        window: frames per training window.
+        fps: frames per second of the data the model expects.
+        control: ``"predicted"`` (no control input: predict it with the pose) or
+            ``"given"`` (the next frame's control is an input; predict the pose only).
+        hidden: LSTM units per layer.
+        layers: stacked LSTM layers (3 in LSTM-3LR).
+        input_noise: standard deviation (normalised units) of Gaussian noise added to the
+            input frames while training, so that the model learns to recover from its own
+            errors when it runs on its predictions (Fragkiadaki et al. §3.1).
+    """
+
+    n_pose: int = 63
+    n_control: int = 3
+    window: int = 80
+    fps: float = 20.0
+    control: str = "predicted"
+    hidden: int = 128
+    layers: int = 3
+    input_noise: float = 0.05
+
+    def __post_init__(self):
+        if self.control not in ("predicted", "given"):
+            raise ValueError(f"control: expected 'predicted' or 'given', got {self.control!r}")
+        for name in ("n_pose", "n_control", "hidden", "layers"):
+            if getattr(self, name) < 1:
+                raise ValueError(f"{name}: must be >= 1, got {getattr(self, name)}")
+        if self.window < 2:
+            raise ValueError(f"window: needs >= 2 frames (a frame and its successor), got {self.window}")
+        if self.input_noise < 0:
+            raise ValueError(f"input_noise: must be >= 0, got {self.input_noise}")
+
+    @property
+    def n_features(self) -> int:
+        return self.n_pose + self.n_control
+
+    @classmethod
+    def paper(cls, **changes) -> "LSTMConfig":
+        """LSTM-3LR as Habibie compares with it: 3 layers of 1000 units, 240-frame
+        windows at 60 fps."""
+        return replace(cls(window=240, fps=60.0, hidden=1000, layers=3), **changes)
+
+
+class MotionLSTM(nn.Module):
+    """LSTM-3LR: next-frame prediction with stacked LSTMs and a linear read-out.
+
+    ``forward(frames, next_control, state)`` -> predictions ``(batch, frames, outputs)``
+    and the LSTM state; :meth:`predict` primes and runs it on its own output.
+    """
+
+    def __init__(self, config: LSTMConfig = LSTMConfig()):
+        super().__init__()
+        self.config = config
+        given = config.control == "given"
+        inputs = config.n_features + (config.n_control if given else 0)
+        outputs = config.n_pose if given else config.n_features
+        self.lstm = nn.LSTM(inputs, config.hidden, config.layers, batch_first=True)
+        self.readout = nn.Linear(config.hidden, outputs)
+
+    def _check(self, x: torch.Tensor, name: str, features: int, min_frames: int = 1) -> None:
+        if x.ndim != 3 or x.shape[-1] != features or x.shape[1] < min_frames:
+            raise ValueError(f"{name}: expected (batch, frames >= {min_frames}, {features}), got {tuple(x.shape)}")
+        if not torch.isfinite(x).all():
+            raise ValueError(f"{name}: contains NaN or infinite values")
+
+    def forward(self, frames: torch.Tensor, next_control: torch.Tensor | None = None,
+                state: tuple[torch.Tensor, torch.Tensor] | None = None):
+        """Predict frame ``t + 1`` from frames ``<= t``.
+
+        Args:
+            frames: ``(batch, steps, n_features)``, frames ``t``.
+            next_control: ``(batch, steps, n_control)``, the controls of frames ``t + 1``
+                (``control="given"`` only).
+            state: the LSTM's ``(h, c)`` to continue from (``None``: zeros).
+
+        Returns ``(predictions, state)``; predictions are ``(batch, steps, n_pose)`` for
+        ``control="given"`` and ``(batch, steps, n_features)`` otherwise.
+        """
+        inputs = frames
+        if self.config.control == "given":
+            if next_control is None or next_control.shape[:2] != frames.shape[:2]:
+                raise ValueError("next_control: a control='given' model needs (batch, steps, "
+                                 f"{self.config.n_control}) next-frame controls, got "
+                                 f"{None if next_control is None else tuple(next_control.shape)}")
+            inputs = torch.cat([frames, next_control], dim=-1)
+        hidden, state = self.lstm(inputs, state)
+        return self.readout(hidden), state
+
+    def loss(self, batch: torch.Tensor) -> dict[str, torch.Tensor]:
+        """Teacher-forced next-frame mean squared error (normalised units) on windows
+        ``(batch, frames, n_features)``: the pose only for ``control="given"``, pose and
+        control otherwise. Logged: ``pose_mse`` (and ``control_mse`` when predicted)."""
+        self._check(batch, "batch", self.config.n_features, min_frames=2)
+        n_pose = self.config.n_pose
+        inputs = batch[:, :-1]
+        if self.training and self.config.input_noise > 0:
+            inputs = inputs + self.config.input_noise * torch.randn_like(inputs)
+        prediction, _ = self(inputs, batch[:, 1:, n_pose:])
+        target = batch[:, 1:]
+        pose_mse = F.mse_loss(prediction[..., :n_pose], target[..., :n_pose])
+        if self.config.control == "given":
+            return {"loss": pose_mse, "pose_mse": pose_mse.detach()}
+        control_mse = F.mse_loss(prediction[..., n_pose:], target[..., n_pose:])
+        return {"loss": F.mse_loss(prediction, target), "pose_mse": pose_mse.detach(),
+                "control_mse": control_mse.detach()}
+
+    @torch.no_grad()
+    def predict(self, prime: torch.Tensor, frames: int, control: torch.Tensor | None = None) -> torch.Tensor:
+        """Continue the sequences ``prime`` ``(batch, k, n_features)`` to ``frames`` frames.
+
+        The model reads the ``k`` priming frames, then runs on its own predictions.
+
+        Args:
+            prime: the first ``k >= 1`` frames (normalised); returned unchanged.
+            frames: the total length of the result, ``>= k``.
+            control: ``(batch, >= frames, n_control)`` true controls. Required for
+                ``control="given"``; for ``control="predicted"`` optional: if given, each
+                predicted control is replaced by the true one before it is fed back
+                (Habibie's Table 2 protocol for the baselines).
+
+        Returns ``(batch, frames, n_features)`` normalised features.
+        """
+        cfg = self.config
+        self._check(prime, "prime", cfg.n_features)
+        k = prime.shape[1]
+        if frames < k:
+            raise ValueError(f"frames: must be >= the {k} priming frames, got {frames}")
+        if control is not None:
+            self._check(control, "control", cfg.n_control, min_frames=frames)
+            if control.shape[0] != prime.shape[0]:
+                raise ValueError(f"control: expected {prime.shape[0]} sequences like prime, got {control.shape[0]}")
+        elif cfg.control == "given":
+            raise ValueError("control: a control='given' model needs the control signal for all frames")
+        was_training = self.training
+        self.eval()
+        given = cfg.control == "given"
+        _, state = self(prime[:, :-1], control[:, 1:k] if given else None) if k > 1 else (None, None)
+        out = [prime]
+        current = prime[:, -1:]
+        for t in range(k, frames):
+            prediction, state = self(current, control[:, t:t + 1] if given else None, state)
+            if given:
+                current = torch.cat([prediction, control[:, t:t + 1]], dim=-1)
+            elif control is not None:
+                current = torch.cat([prediction[..., :cfg.n_pose], control[:, t:t + 1]], dim=-1)
+            else:
+                current = prediction
+            out.append(current)
+        self.train(was_training)
+        return torch.cat(out, dim=1)

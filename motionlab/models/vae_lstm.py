@@ -1,0 +1,466 @@
+"""The control-conditioned recurrent VAE, "VAE-LSTM" (Habibie et al. 2017).
+
+A window of motion is split into its pose ``X`` (63 root-local joint coordinates per frame)
+and its control ``C`` (forward, sideways and turning velocity). Two convolutional encoders
+(§3.2, eq. 6) summarise both at a quarter of the frame rate: the *inference network* gives
+a Gaussian posterior ``q(z_s | X)`` per step ``s``, the *control encoder* a deterministic
+code ``h_s``. A modified LSTM cell (§3.3, eqs. 7-9) combines them into a sequence of cell
+states, the *motion canvas*, and a decoder of upsampling and convolution (§3.3) paints the
+canvas back into frames at the full rate::
+
+    X (T x 63) --inference net: [conv, ELU, max-pool] x 2--> mu, log sigma^2 (T/4 x units)  eq. 6
+    C (T x 3)  --control encoder: [conv, ELU, max-pool] x 2--> h (T/4 x code)                eq. 6
+    z_s = mu_s + sigma_s * eps                                                               eq. 3
+    training:  c_s = a(f_s * W_c z_s     + i_s * W_h h_s)    gates i, f from c_{s-1}, h_s   eqs. 7-9
+    test time: c_s = a(f_s * W_c c_{s-1} + i_s * W_h h_s)    c_0 = z_1: one latent only
+    canvas c_{1..T/4} --[upsample x2, conv] x 2--> X^ (T x 66)                              §3.3
+    loss = -log N(X | X^, std^2) + sum_s KL(q(z_s | X) || N(0, I))                          eqs. 4-5
+         + free_running * -log N(X | X^ decoded from z_1 alone, test-time cell, std^2)    (ours)
+
+Generation (§3.4, Algorithm 1) needs only a control signal: ``z_1`` comes from the prior
+(no frames) or from the posterior of the first 4 frames (§4.3), and the cell runs in its
+test-time form for every later step. The paper's objective never trains that test-time
+form; the ``free_running`` term (our addition, see :meth:`VAELSTM.loss`) does, and without
+it the generated motion is barely better than the average pose (notebook 04).
+
+Where the paper leaves a choice open, this file makes one and says so in a comment marked
+*Choice*. All tensors are ``(batch, frames, features)`` in the normalised units of
+:class:`motionlab.data.Normalizer`; the convolutions transpose to ``(batch, channels,
+frames)`` inside.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import torch
+import torch.nn.functional as F
+from torch import nn
+
+POOLING = 4
+"""Frames per canvas step: two max-pooling layers, each halving the frame rate (§4.2)."""
+
+
+@dataclass(frozen=True)
+class VAELSTMConfig:
+    """Sizes and options. Defaults: a laptop-sized model at 20 fps; :meth:`paper` is §4.2.
+
+    Attributes:
+        n_pose: pose features per frame (63: 21 joints x 3).
+        n_control: control features per frame (3: forward, sideways, turning velocity).
+        window: frames per training window (any length works: sequences are padded to a
+            multiple of 4 with their last frame, and cropped back).
+        fps: frames per second of the data the model expects.
+        width: temporal filter width of every convolution, in frames (odd).
+        control_filters, control_code: filters of the control encoder's two blocks; the
+            second is the size of the control code ``h`` per step.
+        inference_filters: filters of the inference network's first block (its second
+            block has ``2 * units`` filters: ``mu`` and ``log sigma^2``).
+        units: LSTM cell size, which is also the latent size (eq. 9 feeds ``z_t`` where
+            the test-time cell feeds ``c_{t-1}``, through one matrix ``W_c``).
+        decoder_filters: filters of the decoder's hidden convolution.
+        observation_std: standard deviation of the Gaussian likelihood ``p(X | z)`` in
+            normalised units (eq. 5, ``L_x``).
+        dropout: probability that a joint (its three coordinates) or a control channel is
+            zeroed at the encoders' input while training (§4.2).
+        l1: weight of the L1 penalty on the mean absolute weight (§4.2: "l1 = 0.1").
+        free_running: weight of a second reconstruction term in which the cell runs in its
+            test-time form from ``z_1`` (our addition, see :meth:`loss`; 0 = the paper's
+            objective exactly).
+        control_smoothing_s: standard deviation (seconds) of a Gaussian that smooths the
+            control before the control encoder sees it (an experiment, see
+            :meth:`smooth_control`; 0 = the raw control, as in the paper).
+        upsample: how the decoder doubles the frame rate: ``"linear"`` or ``"nearest"``.
+    """
+
+    n_pose: int = 63
+    n_control: int = 3
+    window: int = 80
+    fps: float = 20.0
+    width: int = 9
+    control_filters: int = 16
+    control_code: int = 32
+    inference_filters: int = 32
+    units: int = 32
+    decoder_filters: int = 64
+    observation_std: float = 1.0
+    dropout: float = 0.1
+    l1: float = 0.1
+    free_running: float = 1.0
+    control_smoothing_s: float = 0.0
+    upsample: str = "linear"
+
+    def __post_init__(self):
+        for name in ("n_pose", "n_control", "window", "control_filters", "control_code",
+                     "inference_filters", "units", "decoder_filters"):
+            if getattr(self, name) < 1:
+                raise ValueError(f"{name}: must be >= 1, got {getattr(self, name)}")
+        if self.width < 1 or self.width % 2 == 0:
+            raise ValueError(f"width: must be odd and >= 1 so a convolution keeps the length, got {self.width}")
+        if not 0 <= self.dropout < 1:
+            raise ValueError(f"dropout: expected 0 <= p < 1, got {self.dropout}")
+        if self.observation_std <= 0:
+            raise ValueError(f"observation_std: must be > 0, got {self.observation_std}")
+        if self.l1 < 0 or self.free_running < 0:
+            raise ValueError(f"l1 and free_running: must be >= 0, got {self.l1} and {self.free_running}")
+        if self.control_smoothing_s < 0:
+            raise ValueError(f"control_smoothing_s: must be >= 0, got {self.control_smoothing_s}")
+        if self.upsample not in ("linear", "nearest"):
+            raise ValueError(f"upsample: expected 'linear' or 'nearest', got {self.upsample!r}")
+
+    @property
+    def n_features(self) -> int:
+        return self.n_pose + self.n_control
+
+    @classmethod
+    def paper(cls, **changes) -> "VAELSTMConfig":
+        """§4.2: 240-frame windows at 60 fps; filters 25 frames wide (0.4 s); control
+        encoder 64 and 128 filters, inference network 64 and 256 (= mu and log sigma^2 of
+        128 latents), 128 LSTM units (a 128 x 60 canvas), decoder 128 filters back to 66.
+        Our free-running term stays on; ``paper(free_running=0.0)`` is the paper's objective
+        exactly. §4.2 gives no dropout rate (we keep 0.1)."""
+        return replace(cls(window=240, fps=60.0, width=25, control_filters=64, control_code=128,
+                           inference_filters=64, units=128, decoder_filters=128), **changes)
+
+
+# ----------------------------------------------------------------------------------------
+# Building blocks
+# ----------------------------------------------------------------------------------------
+
+def pad_to_canvas(x: torch.Tensor) -> torch.Tensor:
+    """Pad ``(batch, frames, features)`` at the end to a multiple of 4 frames by repeating
+    the last frame (§4.1 pads sequences with their final pose the same way)."""
+    extra = -x.shape[1] % POOLING
+    if extra == 0:
+        return x
+    return torch.cat([x, x[:, -1:].expand(-1, extra, -1)], dim=1)
+
+
+class ConvEncoder(nn.Module):
+    """Eq. 6: ``Psi(a(Psi(a(X * W_0 + b_0)) * W_1 + b_1))``, a = ELU, Psi = max-pool by 2.
+
+    ``(batch, frames, in_channels)`` -> ``(batch, frames // 4, filters[1])``; frames must
+    be a multiple of 4. With ``last_activation=False`` the second block has no ELU, so that
+    it can output unbounded posterior parameters.
+    """
+
+    def __init__(self, in_channels: int, filters: tuple[int, int], width: int,
+                 last_activation: bool = True):
+        super().__init__()
+        # Choice: convolutions pad by repeating the edge frames, as the data are padded
+        # (§4.1); zero padding would look like a sudden stop at both ends.
+        self.conv0 = nn.Conv1d(in_channels, filters[0], width, padding=width // 2, padding_mode="replicate")
+        self.conv1 = nn.Conv1d(filters[0], filters[1], width, padding=width // 2, padding_mode="replicate")
+        self.last_activation = last_activation
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        h = F.max_pool1d(F.elu(self.conv0(x.transpose(1, 2))), 2)
+        h = self.conv1(h)
+        if self.last_activation:
+            h = F.elu(h)
+        return F.max_pool1d(h, 2).transpose(1, 2)
+
+
+class ControlledLSTMCell(nn.Module):
+    """The modified LSTM cell of eqs. 7-9 (no output gate; the cell state is the output).
+
+    ``i = s(W_ic c_prev + b_ic + W_ih h + b_ih)``                      (eq. 7)
+    ``f = s(W_fc c_prev + b_fc + W_fh h + b_fh)``                      (eq. 8)
+    ``c = tanh(f * W_c drive + i * W_h h)``                             (eq. 9)
+
+    where ``drive`` is the latent ``z_t`` while training and ``c_prev`` at test time.
+    """
+
+    def __init__(self, units: int, control_code: int):
+        super().__init__()
+        self.W_ic = nn.Linear(units, units)          # weights and bias b_ic
+        self.W_ih = nn.Linear(control_code, units)
+        self.W_fc = nn.Linear(units, units)
+        self.W_fh = nn.Linear(control_code, units)
+        # Choice: eq. 9 writes W_c[.] and W_h[.] without biases; we keep them without.
+        self.W_c = nn.Linear(units, units, bias=False)
+        self.W_h = nn.Linear(control_code, units, bias=False)
+
+    def forward(self, previous: torch.Tensor, drive: torch.Tensor, control_code: torch.Tensor) -> torch.Tensor:
+        """One step. ``previous`` ``c_{t-1}`` and ``drive`` ``(batch, units)``,
+        ``control_code`` ``h_t`` ``(batch, control_code)`` -> ``c_t`` ``(batch, units)``."""
+        input_gate = torch.sigmoid(self.W_ic(previous) + self.W_ih(control_code))     # eq. 7
+        forget_gate = torch.sigmoid(self.W_fc(previous) + self.W_fh(control_code))    # eq. 8
+        # Choice: the paper's activation "alpha" in eq. 9 is ELU everywhere else (§4.2);
+        # we use the LSTM's tanh, which keeps the test-time recursion c_{t-1} -> c_t bounded.
+        return torch.tanh(forget_gate * self.W_c(drive) + input_gate * self.W_h(control_code))   # eq. 9
+
+
+class CanvasDecoder(nn.Module):
+    """CNN^dec (§3.3): ``[upsample x2, conv, ELU, upsample x2, conv]`` from the canvas
+    ``(batch, steps, units)`` to frames ``(batch, 4 * steps, n_features)``; the inverse of
+    the encoders, interpolating between canvas steps."""
+
+    def __init__(self, units: int, filters: int, n_features: int, width: int, upsample: str):
+        super().__init__()
+        self.conv0 = nn.Conv1d(units, filters, width, padding=width // 2, padding_mode="replicate")
+        self.conv1 = nn.Conv1d(filters, n_features, width, padding=width // 2, padding_mode="replicate")
+        self.upsample = upsample
+
+    def _up(self, h: torch.Tensor) -> torch.Tensor:
+        if self.upsample == "linear":
+            return F.interpolate(h, scale_factor=2, mode="linear", align_corners=False)
+        return F.interpolate(h, scale_factor=2, mode="nearest")
+
+    def forward(self, canvas: torch.Tensor) -> torch.Tensor:
+        h = F.elu(self.conv0(self._up(canvas.transpose(1, 2))))
+        return self.conv1(self._up(h)).transpose(1, 2)
+
+
+def gaussian_kl(mu: torch.Tensor, logvar: torch.Tensor) -> torch.Tensor:
+    """``KL(N(mu, exp(logvar)) || N(0, I))`` per step, summed over latent dimensions:
+    ``(..., units)`` -> ``(...)`` nats. The terms of eq. 4."""
+    return 0.5 * (mu.pow(2) + logvar.exp() - 1.0 - logvar).sum(-1)
+
+
+# ----------------------------------------------------------------------------------------
+# The model
+# ----------------------------------------------------------------------------------------
+
+class VAELSTM(nn.Module):
+    """Habibie et al.'s VAE-LSTM: control signal in, full-body motion out.
+
+    Training: ``loss(batch)`` on windows ``(batch, frames, n_pose + n_control)``.
+    Generation: :meth:`generate` from a control signal ``(batch, frames, n_control)``,
+    from the prior (Algorithm 1) or primed with 4 frames (§4.3).
+    """
+
+    def __init__(self, config: VAELSTMConfig = VAELSTMConfig()):
+        super().__init__()
+        self.config = config
+        c = config
+        self.control_encoder = ConvEncoder(c.n_control, (c.control_filters, c.control_code), c.width)
+        # The inference network's 2 * units filters are mu and log sigma^2 (§4.2: 256 = 2 x 128).
+        # Choice: no ELU on that last block: eq. 6 would bound mu >= -1 and sigma^2 >= 1/e.
+        self.inference = ConvEncoder(c.n_pose, (c.inference_filters, 2 * c.units), c.width,
+                                     last_activation=False)
+        self.cell = ControlledLSTMCell(c.units, c.control_code)
+        self.decoder = CanvasDecoder(c.units, c.decoder_filters, c.n_features, c.width, c.upsample)
+
+    # -- checks --------------------------------------------------------------------------
+
+    def _check(self, x: torch.Tensor, name: str, features: int | tuple[int, ...], min_frames: int = 1) -> None:
+        allowed = (features,) if isinstance(features, int) else features
+        if x.ndim != 3 or x.shape[-1] not in allowed or x.shape[1] < min_frames:
+            want = " or ".join(str(f) for f in allowed)
+            raise ValueError(f"{name}: expected (batch, frames >= {min_frames}, {want}), got {tuple(x.shape)}")
+        if not torch.isfinite(x).all():
+            raise ValueError(f"{name}: contains NaN or infinite values")
+
+    # -- the parts -----------------------------------------------------------------------
+
+    def corrupt(self, x: torch.Tensor) -> torch.Tensor:
+        """Dropout on the joints and the control (§4.2): each joint (its three coordinates)
+        and each control channel of each window is zeroed (set to the data's mean) with
+        probability ``dropout``; the rest is scaled by ``1 / (1 - dropout)``. Works on the
+        pose ``(..., n_pose)``, the control ``(..., n_control)`` or both together."""
+        p = self.config.dropout
+        if p == 0:
+            return x
+        n_pose = self.config.n_pose
+        groups = []
+        if x.shape[-1] in (n_pose, self.config.n_features):
+            groups += [3] * (n_pose // 3)
+        if x.shape[-1] in (self.config.n_control, self.config.n_features):
+            groups += [1] * self.config.n_control
+        keep = (torch.rand(x.shape[0], 1, len(groups), device=x.device) >= p).to(x.dtype)
+        keep = keep.repeat_interleave(torch.tensor(groups, device=x.device), dim=-1)
+        return x * keep / (1 - p)
+
+    def smooth_control(self, control: torch.Tensor) -> torch.Tensor:
+        """Gaussian smoothing over time of ``(batch, frames, n_control)``, standard deviation
+        ``control_smoothing_s`` (edges repeat the first and last value).
+
+        An experiment, off by default: the control of captured motion is the velocity of
+        the hips projected on the floor (§4.1), so it wobbles with every step (the pelvis
+        sways and surges) and tells the model when each foot lands. A path drawn by an
+        animator has no such wobble. Smoothing over about a stride (0.5 s) removes it and
+        keeps what an animator gives (speed, direction, turns, starts, stops): the model
+        must then keep the rhythm of the steps itself, from ``z_1``.
+        """
+        sigma = self.config.control_smoothing_s * self.config.fps
+        if sigma < 0.1:
+            return control
+        radius = int(math.ceil(3 * sigma))
+        offsets = torch.arange(-radius, radius + 1, dtype=control.dtype, device=control.device)
+        kernel = torch.exp(-0.5 * (offsets / sigma) ** 2)
+        kernel = (kernel / kernel.sum()).expand(control.shape[-1], 1, -1)
+        padded = F.pad(control.transpose(1, 2), (radius, radius), mode="replicate")
+        return F.conv1d(padded, kernel, groups=control.shape[-1]).transpose(1, 2)
+
+    def encode_control(self, control: torch.Tensor) -> torch.Tensor:
+        """Control encoder CNN^enc (eq. 6): ``(batch, frames, n_control)`` with frames a
+        multiple of 4 -> control code ``h`` ``(batch, frames // 4, control_code)``. The
+        control is smoothed first when ``control_smoothing_s > 0``."""
+        return self.control_encoder(self.smooth_control(control))
+
+    def posterior(self, pose: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """Inference network (eq. 6): pose ``(batch, frames, n_pose)`` with frames a multiple
+        of 4 -> ``mu`` and ``log sigma^2`` of ``q(z_s | X)``, each ``(batch, frames // 4, units)``."""
+        mu, logvar = self.inference(pose).chunk(2, dim=-1)
+        # Choice: log sigma^2 is kept within [-10, 5] so exp() can neither vanish nor overflow.
+        return mu, logvar.clamp(-10.0, 5.0)
+
+    def canvas(self, control_code: torch.Tensor, latents: torch.Tensor) -> torch.Tensor:
+        """Run the cell over ``steps`` canvas steps -> the motion canvas ``(batch, steps, units)``.
+
+        ``latents`` ``(batch, steps, units)``: training form, ``z_s`` drives every step
+        (eq. 9, top). ``latents`` ``(batch, 1, units)``: test-time form, ``z_1`` drives the
+        first step and ``c_{s-1}`` every later one (eq. 9, bottom; Algorithm 1). Either way
+        the cell starts from ``c_0 = z_1`` (Algorithm 1 initialises the cell with ``z_1``).
+        """
+        steps = control_code.shape[1]
+        if latents.shape[1] not in (1, steps):
+            raise ValueError(f"latents: expected 1 or {steps} steps, got {latents.shape[1]}")
+        previous = latents[:, 0]
+        states = []
+        for s in range(steps):
+            drive = latents[:, s] if latents.shape[1] == steps else (latents[:, 0] if s == 0 else previous)
+            previous = self.cell(previous, drive, control_code[:, s])
+            states.append(previous)
+        return torch.stack(states, dim=1)                      # m_c = [c_1 || ... || c_S]
+
+    def decode(self, canvas: torch.Tensor) -> torch.Tensor:
+        """CNN^dec: canvas ``(batch, steps, units)`` -> frames ``(batch, 4 * steps, n_features)``."""
+        if canvas.ndim != 3 or canvas.shape[-1] != self.config.units:
+            raise ValueError(f"canvas: expected (batch, steps, {self.config.units}), got {tuple(canvas.shape)}")
+        return self.decoder(canvas)
+
+    # -- training ------------------------------------------------------------------------
+
+    def forward(self, x: torch.Tensor, sample: bool = True) -> dict[str, torch.Tensor]:
+        """The training pass on windows ``x`` ``(batch, frames, n_features)``.
+
+        Returns ``reconstruction`` ``(batch, frames, n_features)``, ``mu``, ``logvar``,
+        ``z`` and ``canvas`` ``(batch, ceil(frames / 4), units)``. ``sample=False`` uses
+        the posterior means instead of samples (a deterministic reconstruction).
+        """
+        self._check(x, "x", self.config.n_features)
+        frames = x.shape[1]
+        padded = pad_to_canvas(x)
+        if self.training:
+            padded = self.corrupt(padded)
+        pose, control = padded[..., :self.config.n_pose], padded[..., self.config.n_pose:]
+        code = self.encode_control(control)
+        mu, logvar = self.posterior(pose)
+        z = mu + (0.5 * logvar).exp() * torch.randn_like(mu) if sample else mu     # eq. 3
+        canvas = self.canvas(code, z)
+        return {"reconstruction": self.decode(canvas)[:, :frames], "mu": mu, "logvar": logvar,
+                "z": z, "canvas": canvas, "control_code": code}
+
+    def _neg_log_likelihood(self, prediction: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
+        """``-log N(target | prediction, std^2 I)`` summed over features: ``(batch, frames)`` nats."""
+        std = self.config.observation_std
+        squared = ((prediction - target) / std).pow(2)
+        return (0.5 * squared + math.log(std) + 0.5 * math.log(2 * math.pi)).sum(-1)
+
+    def l1_penalty(self) -> torch.Tensor:
+        """Mean absolute value of every weight matrix and filter (not the biases)."""
+        weights = [p for name, p in self.named_parameters() if not name.endswith("bias")]
+        return torch.cat([w.abs().flatten() for w in weights]).mean()
+
+    def loss(self, batch: torch.Tensor) -> dict[str, torch.Tensor]:
+        """Eq. 5 per frame: ``(-log p(X | z) + sum_s KL(q(z_s | X) || N(0, I))) / frames``,
+        plus ``l1`` times the mean absolute weight (§4.2).
+
+        With ``free_running > 0`` a second reconstruction term (times ``free_running``)
+        decodes the same window with the cell in its test-time form from the sampled
+        ``z_1`` only: the path that generation takes, which the paper's objective never
+        trains. Logged: ``nll`` and ``kl`` (nats per frame), ``mse`` (normalised units),
+        and ``free_mse`` when used.
+        """
+        out = self(batch)
+        frames = batch.shape[1]
+        nll = self._neg_log_likelihood(out["reconstruction"], batch).sum(1) / frames     # L_x
+        kl = gaussian_kl(out["mu"], out["logvar"]).sum(1) / frames                       # L_z, eq. 4
+        total = (nll + kl).mean() + self.config.l1 * self.l1_penalty()
+        terms = {"nll": nll.mean(), "kl": kl.mean(),
+                 "mse": F.mse_loss(out["reconstruction"], batch).detach()}
+        if self.config.free_running > 0:
+            free = self.decode(self.canvas(out["control_code"], out["z"][:, :1]))[:, :frames]
+            free_nll = self._neg_log_likelihood(free, batch).sum(1) / frames
+            total = total + self.config.free_running * free_nll.mean()
+            terms["free_mse"] = F.mse_loss(free, batch).detach()
+        return {"loss": total, **terms}
+
+    # -- generation ----------------------------------------------------------------------
+
+    @torch.no_grad()
+    def generate(self, control: torch.Tensor, initial: torch.Tensor | None = None,
+                 mean: bool = False, generator: torch.Generator | None = None) -> torch.Tensor:
+        """Motion for a control signal: Algorithm 1, or primed with initial frames (§4.3).
+
+        Args:
+            control: ``(batch, frames, n_control)``, normalised, for the whole sequence;
+                any number of frames (padded to a multiple of 4 with the last value).
+            initial: ``None``: ``z_1`` is drawn from the prior ``N(0, I)`` (Algorithm 1).
+                Or ``(batch, k >= 4, n_pose or n_features)`` first frames: ``z_1`` is drawn
+                from the posterior of its first canvas step (4 frames = one step, §4.3).
+            mean: take the mean of ``z_1``'s distribution instead of a sample.
+            generator: a ``torch.Generator`` for reproducible samples.
+
+        Returns ``(batch, frames, n_features)`` normalised features; the control columns
+        are the given ``control`` (the model follows it; its own reconstruction of the
+        control is only a training target).
+        """
+        self._check(control, "control", self.config.n_control)
+        batch, frames = control.shape[:2]
+        was_training = self.training
+        self.eval()
+        code = self.encode_control(pad_to_canvas(control))
+        if initial is None:
+            mu = torch.zeros(batch, 1, self.config.units, device=control.device)
+            logvar = torch.zeros_like(mu)
+        else:
+            self._check(initial, "initial", (self.config.n_pose, self.config.n_features), min_frames=POOLING)
+            if initial.shape[0] != batch:
+                raise ValueError(f"initial: expected {batch} sequences like control, got {initial.shape[0]}")
+            mu, logvar = self.posterior(pad_to_canvas(initial[..., :self.config.n_pose]))
+            mu, logvar = mu[:, :1], logvar[:, :1]
+        noise = torch.randn(mu.shape, generator=generator, device=mu.device)
+        z1 = mu if mean else mu + (0.5 * logvar).exp() * noise
+        motion = self.decode(self.canvas(code, z1))[:, :frames]
+        self.train(was_training)
+        return torch.cat([motion[..., :self.config.n_pose], control], dim=-1)
+
+    @torch.no_grad()
+    def reconstruct(self, x: torch.Tensor, free_running: bool = False) -> torch.Tensor:
+        """Deterministic reconstruction of windows ``x`` ``(batch, frames, n_features)``
+        from the posterior means: every ``mu_s`` driving the cell (the training form), or
+        only ``mu_1`` (``free_running=True``, the test-time form). Control columns are
+        returned as decoded."""
+        was_training = self.training
+        self.eval()
+        self._check(x, "x", self.config.n_features)
+        padded = pad_to_canvas(x)
+        code = self.encode_control(padded[..., self.config.n_pose:])
+        mu, _ = self.posterior(padded[..., :self.config.n_pose])
+        out = self.decode(self.canvas(code, mu[:, :1] if free_running else mu))[:, :x.shape[1]]
+        self.train(was_training)
+        return out
+
+    def trace(self, x: torch.Tensor) -> list[tuple[str, tuple[int, ...]]]:
+        """The shape of a window ``x`` at every stage, for a walk-through of the model."""
+        self._check(x, "x", self.config.n_features)
+        was_training = self.training
+        with torch.no_grad():
+            out = self.eval()(x, sample=False)
+        self.train(was_training)
+        padded = pad_to_canvas(x)
+        c = self.config
+        return [("window (batch, frames, pose + control)", tuple(x.shape)),
+                ("padded to a multiple of 4 frames", tuple(padded.shape)),
+                (f"pose X -> inference net, {c.inference_filters} then {2 * c.units} filters, 2 pools",
+                 tuple(out["mu"].shape[:2]) + (2 * c.units,)),
+                ("  = mu and log sigma^2 of q(z_s | X), each", tuple(out["mu"].shape)),
+                (f"control C -> control encoder, {c.control_filters} then {c.control_code} filters",
+                 tuple(out["control_code"].shape)),
+                (f"LSTM cell over {out['canvas'].shape[1]} steps: the motion canvas",
+                 tuple(out["canvas"].shape)),
+                ("decoder: upsample, conv, ELU, upsample, conv (then cropped)",
+                 tuple(out["reconstruction"].shape))]
