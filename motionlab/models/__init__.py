@@ -7,4 +7,5 @@ MODELS = {
     "conv_ae": ("motionlab.models.conv_ae", "ConvAutoencoder", "ConvAEConfig"),
     "vae_lstm": ("motionlab.models.vae_lstm", "VAELSTM", "VAELSTMConfig"),
     "lstm": ("motionlab.models.lstm", "MotionLSTM", "LSTMConfig"),
+    "glow": ("motionlab.models.glow", "Glow", "GlowConfig"),
 }

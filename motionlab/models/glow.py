@@ -1,0 +1,258 @@
+"""Glow for fixed-length motion sequences (Henter et al. 2020, §3; Kingma & Dhariwal 2018).
+
+A whole window of ``T`` frames is one point ``x ∈ R^{T x D}``, mapped to a Gaussian latent
+``z`` of the same size by a normalising flow built from :mod:`motionlab.models.flows`:
+``L`` levels of ``K`` steps (ActNorm -> invertible 1x1 -> affine coupling), with a split
+and a squeeze over time between levels (§3.3.4). The coupling networks are convolutions
+over ``t-1 .. t+1`` (eq. 8). The exact log-likelihood is eq. 9::
+
+    ln p(x) = ln N(z_N(x); 0, I) + Σ_n Σ_d Σ_t (ln s_nd + ln |u_nd| + ln s'_tnd(x))
+
+With ``conditional=True`` (§3.4, eq. 10) the model is ``p(pose | control)``: the 63 pose
+values of each frame are the flow's data, and the 3 control values (forward, sideways and
+turning velocity) are the coupling networks' conditioning input, squeezed with the data
+but never split (§5.2). With ``conditional=False`` it models all 66 values: motion *and*
+path, with no say over either.
+
+Two pose values are zero by construction: the hips' ``x`` and ``z`` in the root frame,
+whose origin is on the floor under the hips (:mod:`motionlab.representation`). A density
+on a value that never varies is infinitely peaked, and a flow would chase it for ever
+(its likelihood grows without bound as ActNorm scales the constant up); the model leaves
+these ``constant_features`` out of the flow and puts the zeros back when sampling.
+
+Units: the model works on the normalised features of :func:`motionlab.data.prepare`
+(each feature divided by its standard deviation), and its ``loss`` is the negative
+log-likelihood in nats per modelled value of those normalised features. :meth:`Glow.nll`
+reports nats and bits per frame, in normalised units, or in the data's own units
+(metres, m/s, rad/s) when given the normaliser: ``ln p_data(x) = ln p(x / σ) - Σ_d ln σ_d``
+per frame (the normalisation's Jacobian).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from functools import partial
+
+import numpy as np
+import torch
+from torch import nn
+
+from .flows import ConvCouplingNet, GaussianPrior, MultiScaleFlow
+
+
+@dataclass(frozen=True)
+class GlowConfig:
+    """Sizes and options. Defaults: a laptop-sized model (training on 4-second windows takes
+    about a minute on 2 CPU cores); :meth:`paper` is §5.2's.
+
+    Attributes:
+        n_features: features per frame of the data (66: 63 pose + 3 control).
+        n_control: the last ``n_control`` features are the control signal.
+        window: frames per training window (a multiple of ``2^(levels - 1)``).
+        fps: frames per second of the data the model expects.
+        levels: ``L``, levels of the hierarchy (§3.3.4).
+        steps: ``K``, steps of flow per level.
+        hidden: channels of the coupling networks' two hidden layers.
+        width: frames the coupling networks see (3: ``t-1 .. t+1``, eq. 8).
+        conditional: model the pose given the control (eq. 10), else all features.
+        constant_features: features that are 0 in every frame (after normalisation) and
+            are left out of the flow: by default the hips' root-local ``x`` and ``z``.
+    """
+
+    n_features: int = 66
+    n_control: int = 3
+    window: int = 80
+    fps: float = 20.0
+    levels: int = 2
+    steps: int = 8
+    hidden: int = 64
+    width: int = 3
+    conditional: bool = True
+    constant_features: tuple[int, ...] = (0, 2)
+
+    def __post_init__(self):
+        object.__setattr__(self, "constant_features", tuple(int(i) for i in self.constant_features))
+        if self.levels < 1 or self.steps < 1 or self.hidden < 1:
+            raise ValueError(f"levels, steps and hidden: need at least 1 each, got {self.levels}, "
+                             f"{self.steps}, {self.hidden}")
+        if self.window % 2 ** (self.levels - 1) or self.window < 1:
+            raise ValueError(f"window: {self.window} frames is not a multiple of 2^(levels - 1) = "
+                             f"{2 ** (self.levels - 1)} (each level but the last halves the frames)")
+        if self.width < 1 or self.width % 2 == 0:
+            raise ValueError(f"width: must be odd and positive, got {self.width}")
+        if not 0 < self.n_control < self.n_features:
+            raise ValueError(f"n_control: expected 1 .. {self.n_features - 1}, got {self.n_control}")
+        described = self.n_features - (self.n_control if self.conditional else 0)
+        bad = [i for i in self.constant_features if not 0 <= i < described]
+        if bad:
+            raise ValueError(f"constant_features: {bad} are not modelled features (0 .. {described - 1})")
+        if described - len(set(self.constant_features)) < 2:
+            raise ValueError("constant_features: fewer than 2 features would be left to model")
+
+    @classmethod
+    def paper(cls, **changes) -> "GlowConfig":
+        """§5.2: ``L = 4`` levels of ``K = 32`` steps, coupling networks with two hidden
+        layers of 512 channels, conditioned on the control; 4-s windows at 20 fps (§5.1)."""
+        return replace(cls(levels=4, steps=32, hidden=512, window=80, fps=20.0, conditional=True), **changes)
+
+
+class Glow(nn.Module):
+    """The fixed-length sequence Glow of §3.3-3.4.
+
+    Batches are normalised feature windows ``(batch, frames, n_features)``, ``frames`` a
+    multiple of ``2^(levels - 1)`` (the convolutions do not fix the length; ``window`` is
+    what it is trained on). The flow sees ``x`` ``(batch, frames, n_modelled)``: the pose
+    (conditional) or all features (unconditional), less the constant features; the latent
+    ``z`` is ``(batch, frames * n_modelled)``.
+    """
+
+    def __init__(self, config: GlowConfig = GlowConfig()):
+        super().__init__()
+        self.config = config
+        n_pose = config.n_features - config.n_control
+        described = n_pose if config.conditional else config.n_features
+        modelled = [i for i in range(described) if i not in config.constant_features]
+        self.register_buffer("modelled", torch.tensor(modelled), persistent=False)
+        self.register_buffer("constant", torch.tensor(sorted(set(config.constant_features)), dtype=torch.long),
+                             persistent=False)
+        self.control = slice(n_pose, config.n_features)
+        self.n_modelled = len(modelled)
+        self.flow = MultiScaleFlow(self.n_modelled, config.levels, config.steps,
+                                   partial(ConvCouplingNet, hidden=config.hidden, width=config.width),
+                                   cond_channels=config.n_control if config.conditional else 0)
+        self.prior = GaussianPrior()
+
+    # -- data in and out -----------------------------------------------------------------
+
+    def _check(self, batch: torch.Tensor) -> None:
+        n = self.config.n_features
+        multiple = 2 ** (self.config.levels - 1)
+        if not isinstance(batch, torch.Tensor) or batch.ndim != 3 or batch.shape[-1] != n \
+                or batch.shape[1] % multiple or batch.shape[1] == 0:
+            shape = tuple(batch.shape) if isinstance(batch, torch.Tensor) else type(batch).__name__
+            raise ValueError(f"batch: expected (batch, frames, {n}) with frames a multiple of {multiple}, got {shape}")
+
+    def split_features(self, batch: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor | None]:
+        """``(x, cond)``: the flow's data ``(batch, frames, n_modelled)`` and the control
+        ``(batch, frames, n_control)`` (``None`` for an unconditional model)."""
+        self._check(batch)
+        if len(self.constant) and batch[..., self.constant].abs().max() > 1e-4:
+            raise ValueError(f"batch: features {self.config.constant_features} should be 0 in every frame "
+                             f"(constant_features), got values up to {batch[..., self.constant].abs().max():.3g}")
+        x = batch[..., self.modelled]
+        return x, (batch[..., self.control] if self.config.conditional else None)
+
+    def join_features(self, x: torch.Tensor, control: torch.Tensor | None) -> torch.Tensor:
+        """The inverse of :meth:`split_features`: ``(batch, frames, n_features)``."""
+        features = x.new_zeros(x.shape[:2] + (self.config.n_features,))
+        features[..., self.modelled] = x
+        if self.config.conditional:
+            features[..., self.control] = control
+        return features
+
+    # -- likelihood (eq. 9) --------------------------------------------------------------
+
+    def encode(self, batch: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """``(z, logdet)``: the latent ``(batch, frames * n_modelled)`` and ``Σ ln|det J|`` ``(batch,)``."""
+        x, cond = self.split_features(batch)
+        return self.flow(x, cond)
+
+    def log_likelihood(self, batch: torch.Tensor) -> torch.Tensor:
+        """``ln p(x | c)`` (conditional) or ``ln p(x)`` of each window, nats, normalised
+        units, ``(batch,)`` (eq. 9)."""
+        z, logdet = self.encode(batch)
+        return self.prior.log_prob(z) + logdet
+
+    def loss(self, batch: torch.Tensor) -> dict[str, torch.Tensor]:
+        """Negative log-likelihood in nats per modelled value (``"loss"``), and per frame in
+        bits (``"bits_per_frame"``); with eq. 9's two parts, the prior term and the
+        log-determinant, in nats per value. All in normalised units."""
+        z, logdet = self.encode(batch)
+        log_prior = self.prior.log_prob(z)
+        frames = batch.shape[1]
+        values = frames * self.n_modelled
+        nll = -(log_prior + logdet).mean()
+        return {"loss": nll / values, "bits_per_frame": nll / frames / math.log(2),
+                "log_prior": log_prior.mean() / values, "logdet": logdet.mean() / values}
+
+    @torch.no_grad()
+    def nll(self, windows: torch.Tensor, normalizer=None, batch_size: int = 64) -> dict[str, float]:
+        """Mean negative log-likelihood of ``windows`` ``(n, frames, n_features)``, per frame.
+
+        Returns ``"nats/frame"`` and ``"bits/frame"``: in normalised units, or, given the
+        :class:`motionlab.data.Normalizer` of the data, in the data's units (metres, m/s,
+        rad/s), adding ``Σ_d ln σ_d`` over the modelled features (the Jacobian of the
+        normalisation) to every frame's NLL.
+        """
+        total = torch.cat([-self.log_likelihood(chunk) for chunk in torch.split(windows, batch_size)])
+        per_frame = float(total.mean()) / windows.shape[1]
+        if normalizer is not None:
+            per_frame += float(np.log(np.asarray(normalizer.std)[self.modelled.cpu().numpy()]).sum())
+        return {"nats/frame": per_frame, "bits/frame": per_frame / math.log(2)}
+
+    # -- sampling ------------------------------------------------------------------------
+
+    @torch.no_grad()
+    def decode(self, z: torch.Tensor, control: torch.Tensor | None = None) -> torch.Tensor:
+        """Latents ``(n, frames * n_modelled)`` (and the control ``(n, frames, n_control)``)
+        to normalised feature windows ``(n, frames, n_features)``."""
+        if z.ndim != 2 or z.shape[1] % self.n_modelled:
+            raise ValueError(f"z: expected (n, frames * {self.n_modelled}), got {tuple(z.shape)}")
+        frames = z.shape[1] // self.n_modelled
+        control = self._check_control(control, z.shape[0], frames)
+        return self.join_features(self.flow.inverse(z, control), control)
+
+    def _check_control(self, control, n: int, frames: int | None):
+        c = self.config.n_control
+        if not self.config.conditional:
+            if control is not None:
+                raise ValueError("control: this model is unconditional (conditional=False); it samples its own control")
+            return None
+        if control is None:
+            raise ValueError(f"control: a conditional model needs the control, (n, frames, {c})")
+        control = torch.as_tensor(control, dtype=torch.float32, device=self.modelled.device)
+        if control.ndim != 3 or control.shape[0] != n or control.shape[2] != c \
+                or (frames is not None and control.shape[1] != frames):
+            want = f"({n}, {frames if frames is not None else 'frames'}, {c})"
+            raise ValueError(f"control: expected {want} in normalised units, got {tuple(control.shape)}")
+        return control
+
+    @torch.no_grad()
+    def sample(self, n: int, control: torch.Tensor | None = None, frames: int | None = None,
+               temperature: float = 1.0, generator: torch.Generator | None = None) -> torch.Tensor:
+        """Draw ``n`` windows ``(n, frames, n_features)`` in normalised units.
+
+        Args:
+            n: number of windows.
+            control: the control to follow, normalised, ``(n, frames, n_control)``: required
+                by a conditional model (it is copied into the output), refused by an
+                unconditional one.
+            frames: window length (a conditional model takes it from ``control``;
+                default: ``config.window``).
+            temperature: the prior's standard deviation (§3, after Kingma & Dhariwal):
+                1 samples the model, 0 gives the image of the latent mode ``z = 0``.
+            generator: a ``torch.Generator`` for reproducible samples.
+        """
+        if n < 1:
+            raise ValueError(f"n: expected at least 1 sample, got {n}")
+        if frames is None:
+            given = control is not None and torch.as_tensor(control).ndim == 3
+            frames = int(torch.as_tensor(control).shape[1]) if given else self.config.window
+        control = self._check_control(control, n, frames)
+        self.flow._check_frames("frames", frames)
+        z = self.prior.sample((n, frames * self.n_modelled), temperature, generator,
+                              device=self.modelled.device)
+        return self.join_features(self.flow.inverse(z, control), control)
+
+    def describe(self, frames: int | None = None) -> list[str]:
+        """One line per level of the hierarchy: frames, channels, conditioning, split."""
+        frames = self.config.window if frames is None else frames
+        lines = []
+        for level, shape in enumerate(self.flow.level_shapes(frames)):
+            line = (f"level {level + 1}: {self.config.steps} steps on {shape['frames']} frames x "
+                    f"{shape['channels']} channels")
+            if shape["cond_channels"]:
+                line += f", conditioned on {shape['cond_channels']} control channels"
+            line += f"; then {shape['split']} channels split off to z" if shape["split"] else "; all to z"
+            lines.append(line)
+        return lines
