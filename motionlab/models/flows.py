@@ -48,6 +48,8 @@ squeeze, couplings conditioned on an external sequence) is a plain chain of step
 """
 from __future__ import annotations
 
+import abc
+
 import math
 from typing import Callable, Iterable
 
@@ -78,18 +80,20 @@ def _check_cond(cond: torch.Tensor | None, cond_channels: int, x: torch.Tensor) 
                          f"got {tuple(cond.shape)}")
 
 
-class InvertibleModule(nn.Module):
+class InvertibleModule(nn.Module, abc.ABC):
     """A bijection on ``(batch, time, channels)`` sequences with a tractable log-determinant.
 
     Subclasses implement ``forward(x, cond=None) -> (z, logdet)`` (data -> latent, with
     ``logdet = ln |det ∂z/∂x|`` of shape ``(batch,)``) and ``inverse(z, cond=None) -> x``.
     """
 
+    @abc.abstractmethod
     def forward(self, x: torch.Tensor, cond: torch.Tensor | None = None) -> tuple[torch.Tensor, torch.Tensor]:
-        raise NotImplementedError
+        """Data -> latent: ``(z, logdet)``."""
 
+    @abc.abstractmethod
     def inverse(self, z: torch.Tensor, cond: torch.Tensor | None = None) -> torch.Tensor:
-        raise NotImplementedError
+        """Latent -> data."""
 
 
 # ----------------------------------------------------------------------------------------
