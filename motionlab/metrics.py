@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .filters import gaussian_smooth
 from .representation import N_POSE, POSE
 from .skeleton import FEET, LOCOMOTION, Skeleton
 
@@ -121,6 +122,48 @@ def diversity(samples: np.ndarray) -> np.ndarray:
     return np.linalg.norm(samples - mean, axis=-1).mean(axis=(0, 2))
 
 
+ANKLES = (LOCOMOTION.index("LeftFoot"), LOCOMOTION.index("RightFoot"))
+
+
+def _pose_joints(features: np.ndarray, name: str = "features") -> np.ndarray:
+    features = np.asarray(features, dtype=np.float64)
+    if features.ndim < 2 or features.shape[-1] < N_POSE:
+        raise ValueError(f"{name}: expected (..., frames, >= {N_POSE}) features, got {features.shape}")
+    return features[..., POSE].reshape(*features.shape[:-1], -1, 3)
+
+
+def stepping_speed(features: np.ndarray, fps: float, joints: tuple[int, ...] = ANKLES,
+                   smooth_s: float = 0.0) -> np.ndarray:
+    """How fast the feet move *relative to the body*, m/s, per frame: ``(..., frames - 1)``.
+
+    The horizontal speed of the ankles in the root frame (the pose features), averaged
+    over both ankles. Walking in place or along a path gives about the walking speed;
+    standing still, or gliding along a path without stepping, gives about 0. Takes
+    features ``(..., frames, 66)`` (or just the 63 pose values) in the data's units.
+
+    ``smooth_s``: smooth the ankle paths with a Gaussian of this many seconds first, so
+    frame-to-frame jitter (which a sampled model adds) does not count as stepping; 0.1 s
+    keeps 85 % of a walking stride's motion and removes most jitter.
+    """
+    ankles = _pose_joints(features)[..., list(joints), :][..., [0, 2]]
+    if ankles.shape[-3] < 2:
+        raise ValueError(f"features: need at least 2 frames, got {ankles.shape[-3]}")
+    if smooth_s < 0:
+        raise ValueError(f"smooth_s: expected >= 0 seconds, got {smooth_s}")
+    if smooth_s > 0:
+        ankles = np.moveaxis(gaussian_smooth(np.moveaxis(ankles, -3, 0), smooth_s * fps), 0, -3)
+    return np.linalg.norm(np.diff(ankles, axis=-3), axis=-1).mean(axis=-1) * fps
+
+
+def pose_spread(features: np.ndarray) -> np.ndarray:
+    """How much the pose changes over time, metres: the standard deviation over frames of
+    every root-local joint coordinate, averaged over coordinates; ``(...)`` for features
+    ``(..., frames, 66)``. A motion frozen in one pose gives 0 (MoGlow §5.3's "reverting
+    to a static pose"); walking gives about 0.1 m."""
+    joints = _pose_joints(features)
+    return joints.std(axis=-3).mean(axis=(-1, -2))
+
+
 def describe_motion(features: np.ndarray) -> dict[str, np.ndarray]:
     """A few interpretable numbers per window of features ``(n, frames, 66)``, each ``(n,)``.
 
@@ -164,3 +207,114 @@ def summarize(positions: np.ndarray, fps: float, skeleton: Skeleton = LOCOMOTION
     """Foot skating (cm/s) and bone-length drift (%) of one clip, for tables."""
     return {"foot skating (cm/s)": 100 * foot_skating(positions, fps),
             "bone-length drift (%)": 100 * bone_length_drift(positions, skeleton)}
+
+
+# ----------------------------------------------------------------------------------------
+# Diversity of samples over time (Chen et al. 2020, §6.3), for any model's samples
+# ----------------------------------------------------------------------------------------
+
+def _check_samples(samples: np.ndarray, name: str = "samples", min_samples: int = 2) -> np.ndarray:
+    samples = np.asarray(samples, dtype=np.float64)
+    if samples.ndim < 2 or samples.shape[0] < min_samples or samples.shape[1] < 1:
+        raise ValueError(f"{name}: expected (n_samples >= {min_samples}, frames >= 1, ...), "
+                         f"got {samples.shape}")
+    if not np.isfinite(samples).all():
+        raise ValueError(f"{name}: contains NaN or infinite values")
+    return samples.reshape(samples.shape[0], samples.shape[1], -1)
+
+
+def distances_to_mean(points: np.ndarray) -> np.ndarray:
+    """Euclidean distance of each of ``points`` ``(n, ...)`` to their mean, ``(n,)``.
+
+    Everything after the first axis is one vector (a pose ``(joints, 3)``, a feature
+    vector, a latent state). The training data's *mean-distance distribution* of Chen et
+    al. (§6.3, Fig. 9) is this over all training frames: pass ``(frames, ...)``.
+    """
+    points = np.asarray(points, dtype=np.float64)
+    if points.ndim < 1 or points.shape[0] < 2:
+        raise ValueError(f"points: expected (n >= 2, ...), got {points.shape}")
+    if not np.isfinite(points).all():
+        raise ValueError("points: contains NaN or infinite values")
+    flat = points.reshape(points.shape[0], -1)
+    return np.linalg.norm(flat - flat.mean(axis=0), axis=-1)
+
+
+def mean_distance_over_time(samples: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The mean-distance distribution over time (Chen et al. §6.3, Fig. 9; Wang et al. 2019).
+
+    For ``samples`` ``(n_samples, frames, ...)`` generated from one start: at each frame
+    the mean of the samples, then each sample's Euclidean distance to it (everything
+    after the frame axis is one vector). Returns the mean and the standard deviation of
+    those distances, each ``(frames,)``, in the samples' units. Compare with
+    ``distances_to_mean`` of the training data (:func:`data_band`).
+    """
+    flat = _check_samples(samples)
+    distances = np.linalg.norm(flat - flat.mean(axis=0, keepdims=True), axis=-1)   # (n, frames)
+    return distances.mean(axis=0), distances.std(axis=0)
+
+
+def data_band(frames: np.ndarray) -> tuple[float, float]:
+    """Mean and standard deviation of :func:`distances_to_mean` over data ``frames``
+    ``(n, ...)``: the band that Fig. 9 of Chen et al. draws behind the samples' curve."""
+    distances = distances_to_mean(frames)
+    return float(distances.mean()), float(distances.std())
+
+
+def pairwise_distance_over_time(samples: np.ndarray) -> np.ndarray:
+    """Mean Euclidean distance between every two samples at each frame, ``(frames,)``.
+
+    ``samples`` ``(n_samples, frames, ...)``; everything after the frame axis is one
+    vector. Zero where all samples agree (the "average pairwise distance" of
+    diverse-prediction papers, per frame).
+    """
+    flat = _check_samples(samples)
+    n = flat.shape[0]
+    total = np.zeros(flat.shape[1])
+    for i in range(n - 1):
+        total += np.linalg.norm(flat[i + 1:] - flat[i], axis=-1).sum(axis=0)
+    return total / (n * (n - 1) / 2)
+
+
+def frame_speed(sequences: np.ndarray, fps: float) -> np.ndarray:
+    """How fast each sequence changes: the norm of the frame-to-frame difference times
+    ``fps``, ``(n, frames - 1)``, for ``sequences`` ``(n, frames, ...)`` (units per second).
+
+    A generator that *freezes* has a speed that falls to zero; one that *explodes*, a
+    speed far above the data's.
+    """
+    flat = _check_samples(sequences, "sequences", min_samples=1)
+    if flat.shape[1] < 2:
+        raise ValueError(f"sequences: need at least 2 frames, got {flat.shape[1]}")
+    if fps <= 0:
+        raise ValueError(f"fps: must be > 0, got {fps}")
+    return np.linalg.norm(np.diff(flat, axis=1), axis=-1) * fps
+
+
+def fraction_in_range(samples: np.ndarray, reference: np.ndarray,
+                      quantiles: tuple[float, float] = (0.001, 0.999), margin: float = 0.1,
+                      atol: float = 0.0) -> np.ndarray:
+    """Per frame, the fraction of values of ``samples`` ``(n, frames, ...)`` inside the
+    range the ``reference`` data ``(m, ...)`` covers, ``(frames,)`` in ``[0, 1]``.
+
+    The range of each value (each trailing index: a joint coordinate, a feature) is the
+    ``quantiles`` of the reference over its first axis, widened on each side by
+    ``margin`` times its width and by ``atol`` (in the samples' units: values the
+    reference never varies, such as the hips' root-local ``x`` and ``z``, have a range of
+    width 0). Long generations that stay realistic stay near 1; ones that explode fall
+    towards 0.
+    """
+    flat = _check_samples(samples, min_samples=1)
+    reference = np.asarray(reference, dtype=np.float64)
+    if reference.ndim < 1 or reference.shape[0] < 2 or \
+            reference.reshape(reference.shape[0], -1).shape[1] != flat.shape[2]:
+        raise ValueError(f"reference: expected (m >= 2, ...) with the samples' trailing shape "
+                         f"{np.shape(samples)[2:]}, got {reference.shape}")
+    low_q, high_q = quantiles
+    if not 0 <= low_q < high_q <= 1:
+        raise ValueError(f"quantiles: expected 0 <= low < high <= 1, got {quantiles}")
+    if margin < 0 or atol < 0:
+        raise ValueError(f"margin and atol: must be >= 0, got {margin} and {atol}")
+    low, high = np.quantile(reference.reshape(reference.shape[0], -1), [low_q, high_q], axis=0)
+    slack = margin * (high - low) + atol
+    inside = (flat >= low - slack) & (flat <= high + slack)
+    return inside.mean(axis=(0, 2))

@@ -452,6 +452,49 @@ def generate(control: np.ndarray, fps: float, body: Body | None = None,
     return Motion(positions[keep], control, contacts[keep], fps, body, style)
 
 
+PRESETS = ("stand still", "walk", "run", "circle", "side-step", "backwards", "walk, then stop")
+"""The names :func:`preset_control` knows: the kinds of test control of MoGlow §5.4."""
+
+
+def preset_control(name: str, duration_s: float = 8.0, fps: float = 20.0, ramp_s: float = 1.0) -> np.ndarray:
+    """A hand-drawn control trajectory ``(frames, 3)``: forward, sideways (m/s), turning (rad/s).
+
+    Every preset starts from standing and reaches its speed over ``ramp_s`` seconds (smoothly):
+    ``"stand still"`` (all zero), ``"walk"`` (1.3 m/s), ``"run"`` (3.2 m/s), ``"circle"``
+    (walking at 1.2 m/s, turning left at 0.6 rad/s: a circle of 2 m radius),
+    ``"side-step"`` (0.5 m/s to the left), ``"backwards"`` (-0.8 m/s), ``"walk, then stop"``
+    (1.3 m/s, slowing to a stop over the second half).
+
+    A drawn path is perfectly smooth; real and synthetic control wobble with every step
+    (the hips sway). Models that read the step timing from the wobble glide along a smooth
+    path: pass it through :func:`walked_control` first.
+    """
+    if name not in PRESETS:
+        raise ValueError(f"name: unknown preset {name!r}; presets are {', '.join(PRESETS)}")
+    if duration_s <= 0 or fps <= 0 or ramp_s < 0:
+        raise ValueError(f"duration_s, fps must be > 0 and ramp_s >= 0, got {duration_s}, {fps}, {ramp_s}")
+    frames = max(2, int(round(duration_s * fps)))
+    t = np.arange(frames) / fps
+    ramp = _smoothstep(t / ramp_s) if ramp_s > 0 else np.ones(frames)
+    target = {"stand still": (0.0, 0.0, 0.0), "walk": (1.3, 0.0, 0.0), "run": (3.2, 0.0, 0.0),
+              "circle": (1.2, 0.0, 0.6), "side-step": (0.0, 0.5, 0.0), "backwards": (-0.8, 0.0, 0.0),
+              "walk, then stop": (1.3, 0.0, 0.0)}[name]
+    control = ramp[:, None] * np.asarray(target)[None]
+    if name == "walk, then stop":
+        half = duration_s / 2
+        control *= 1.0 - _smoothstep((t - half) / max(ramp_s, 1.0 / fps))[:, None]
+    return control
+
+
+def walked_control(control: np.ndarray, fps: float, body: Body | None = None,
+                   style: Style | None = None) -> np.ndarray:
+    """The control ``(frames, 3)`` of the synthetic walker following ``control``: the same
+    path, with the stride-by-stride wobble of real locomotion (the hips sway and surge
+    with each step). Control-driven models learn to read step timing from that wobble."""
+    from .representation import CONTROL, to_features
+    return to_features(generate(control, fps, body, style).positions, fps)[:, CONTROL]
+
+
 def random_motion(duration_s: float = 10.0, fps: float = 20.0, seed: int = 0,
                   body: Body | None = None, style: Style | None = None) -> Motion:
     """A clip with a random control trajectory, body and style, all drawn from ``seed``."""

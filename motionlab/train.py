@@ -29,9 +29,16 @@ def parse_overrides(config_class, items: list[str]) -> dict:
         name, sep, text = item.partition("=")
         if not sep or name not in fields:
             raise ValueError(f"--set {item!r}: expected NAME=VALUE with NAME one of {', '.join(fields)}")
-        kind = type(getattr(defaults, name))
+        default = getattr(defaults, name)
+        kind = type(default)
         try:
-            changes[name] = (text.lower() in ("1", "true", "yes")) if kind is bool else kind(text)
+            if kind is bool:
+                changes[name] = text.lower() in ("1", "true", "yes")
+            elif kind is tuple:                          # "64,128" -> (64, 128), typed like the default's items
+                item_kind = type(default[0]) if default else int
+                changes[name] = tuple(item_kind(part) for part in text.split(",") if part.strip())
+            else:
+                changes[name] = kind(text)
         except ValueError:
             raise ValueError(f"--set {item!r}: {text!r} is not a {kind.__name__}") from None
     return changes
@@ -52,6 +59,9 @@ def main(argv: list[str] | None = None) -> training.History:
     parser.add_argument("--normalization", default="per_feature", choices=["per_feature", "shared_pose"])
     parser.add_argument("--synthetic-clips", type=int, default=40)
     parser.add_argument("--out", default=None, help="checkpoint path (default: <model>.pt)")
+    parser.add_argument("--half", action="store_true", help="store the weights as float16 (half the size)")
+    parser.add_argument("--stride", type=float, default=None,
+                        help="seconds between window starts (default: half a window)")
     args = parser.parse_args(argv)
 
     module_name, model_name, config_name = MODELS[args.model]
@@ -63,7 +73,7 @@ def main(argv: list[str] | None = None) -> training.History:
     except ValueError as err:
         parser.error(str(err))
     clips = data.load(args.data, fps=config.fps, n_clips=args.synthetic_clips, seed=args.seed)
-    prepared = data.prepare(clips, window_s=config.window / config.fps, seed=args.seed,
+    prepared = data.prepare(clips, window_s=config.window / config.fps, stride_s=args.stride, seed=args.seed,
                             normalization=args.normalization)
     print(prepared.summary())
     print(f"model: {model_name}({config})")
@@ -72,7 +82,7 @@ def main(argv: list[str] | None = None) -> training.History:
     history = training.train(model, prepared, training.TrainConfig(
         epochs=args.epochs, batch_size=args.batch_size, lr=args.lr, seed=args.seed, device=args.device))
     out = args.out or f"{args.model}.pt"
-    training.save_checkpoint(out, model.cpu(), prepared, history)
+    training.save_checkpoint(out, model.cpu(), prepared, history, half=args.half)
     summary = f"trained in {history.seconds:.1f} s; final training loss {history.series('loss')[1][-1]:.4f}"
     if history.val:
         summary += f", validation loss {history.last('loss'):.4f}"

@@ -270,11 +270,13 @@ def _import(path: str):
 
 
 def save_checkpoint(path: str | Path, model: nn.Module, data=None, history: History | None = None,
-                    normalizer=None, description: dict | None = None) -> None:
+                    normalizer=None, description: dict | None = None, half: bool = False) -> None:
     """Save weights, config, normaliser and data description in one file.
 
     ``data`` is the :class:`motionlab.data.MotionData` the model trained on (its normaliser
     and description are saved); or pass ``normalizer`` and ``description`` directly.
+    ``half=True`` stores floating-point weights as float16 (half the size, for checkpoints
+    shipped with the course); they load back into the float32 model.
     """
     if not dataclasses.is_dataclass(getattr(model, "config", None)):
         raise ValueError("model: needs a dataclass `config` attribute to be saved")
@@ -285,7 +287,8 @@ def save_checkpoint(path: str | Path, model: nn.Module, data=None, history: Hist
         "model_class": _class_path(model),
         "config_class": _class_path(model.config),
         "config": dataclasses.asdict(model.config),
-        "state_dict": {k: v.detach().cpu() for k, v in model.state_dict().items()},
+        "state_dict": {k: (v.detach().cpu().half() if half and v.is_floating_point() else v.detach().cpu())
+                       for k, v in model.state_dict().items()},
         "normalizer": normalizer.state_dict() if normalizer is not None else None,
         "description": description,
         "history": history.to_dict() if history is not None else None,
@@ -332,25 +335,38 @@ def load_checkpoint(path: str | Path, config=None, device: str = "cpu") -> Check
 _DATA_KEYS = ("source", "fps", "window_frames", "stride_frames", "augment", "clips")
 
 
+def _matching_checkpoint(path: Path, model: nn.Module, data) -> Checkpoint | None:
+    """The checkpoint at ``path`` if it holds ``model``'s class and config, trained on data
+    made the same way as ``data``; else ``None``."""
+    if not path.exists():
+        return None
+    try:
+        checkpoint = load_checkpoint(path, config=model.config)
+    except ValueError:
+        return None                                # another model or config
+    wanted = getattr(data, "description", {})
+    if type(checkpoint.model) is not type(model) or \
+            any(checkpoint.description.get(k) != wanted.get(k) for k in _DATA_KEYS):
+        return None
+    return checkpoint
+
+
 def train_or_load(path: str | Path, model: nn.Module, data, config: TrainConfig | None = None,
-                  retrain: bool = False) -> tuple[nn.Module, History]:
+                  retrain: bool = False, pretrained: str | Path | None = None) -> tuple[nn.Module, History]:
     """Load ``path`` if it holds this model with this config, else train and save it there.
 
     Notebooks use it so that a second run (or a later notebook that needs this model) skips
-    training. Returns the model (in eval mode) and its history.
+    training. ``pretrained`` is a checkpoint shipped with the course, tried first and never
+    written: used when it holds this model and config trained on the same data, so a
+    notebook can start from weights that took longer to train than it has. ``retrain=True``
+    ignores both and trains. Returns the model (in eval mode) and its history.
     """
-    path = Path(path)
-    if path.exists() and not retrain:
-        try:
-            checkpoint = load_checkpoint(path, config=model.config)
-        except ValueError:
-            checkpoint = None                      # another model or config: train afresh
-        wanted = getattr(data, "description", {})
-        same_data = all(checkpoint.description.get(k) == wanted.get(k) for k in _DATA_KEYS) \
-            if checkpoint is not None else False
-        if checkpoint is not None and same_data:
-            model.load_state_dict(checkpoint.model.state_dict())
-            return model.eval(), checkpoint.history
+    if not retrain:
+        for candidate in ([Path(pretrained)] if pretrained is not None else []) + [Path(path)]:
+            checkpoint = _matching_checkpoint(candidate, model, data)
+            if checkpoint is not None:
+                model.load_state_dict(checkpoint.model.state_dict())
+                return model.eval(), checkpoint.history
     history = train(model, data, config)
     save_checkpoint(path, model, data, history)
     return model.eval(), history

@@ -121,3 +121,89 @@ class LatentSliders(_Panel):
         motion = self.decode(z[None])[0]
         values = ", ".join(f"z[{a}]={v:+.2f}" for a, v in zip(self.axes, z[self.axes].tolist()))
         return viz.plot_motion(motion, self.fps, title=f"sample {self.sample.value if sample is None else sample}: {values}")
+
+
+class ControlPanel(_Panel):
+    """Steer a control-driven model (MoGlow, the VAE-LSTM) and see what it makes of it.
+
+    Pick a preset path (:data:`motionlab.synthetic.PRESETS`: stand still, walk, run, circle,
+    side-step, backwards, ...) or ``"sliders"``: constant forward speed, sideways speed and
+    turning rate from the three sliders, reached from standing over the first second. The
+    path goes through :func:`motionlab.synthetic.walked_control` when ``walked`` is true
+    (the stride wobble the models read their step timing from). The figure is
+    :func:`viz.plot_motion` of the generated motion; with "animate" ticked, an animation.
+
+    Args:
+        generate: ``generate(control, seed)``: control ``(frames, 3)`` in m/s and rad/s ->
+            the generated motion's features ``(frames', 66)`` in the data's units.
+        fps: frames per second of the control and the motion.
+        duration_s: length of the control, seconds.
+        walked: pass paths through the synthetic walker first.
+    """
+
+    def __init__(self, generate: Callable[[np.ndarray, int], np.ndarray], fps: float,
+                 duration_s: float = 6.0, walked: bool = True):
+        from .synthetic import PRESETS
+        if duration_s <= 0 or fps <= 0:
+            raise ValueError(f"duration_s and fps must be > 0, got {duration_s} and {fps}")
+        self.generate, self.fps, self.duration_s, self.walked = generate, fps, duration_s, walked
+        self.preset = widgets.Dropdown(options=["sliders", *PRESETS], value="walk", description="path")
+        slider = dict(step=0.1, continuous_update=False)
+        self.forward = widgets.FloatSlider(value=1.3, min=-1.5, max=4.0, description="forward m/s", **slider)
+        self.sideways = widgets.FloatSlider(value=0.0, min=-1.0, max=1.0, description="left m/s", **slider)
+        self.turning = widgets.FloatSlider(value=0.0, min=-1.5, max=1.5, description="turn rad/s", **slider)
+        self.seed = widgets.BoundedIntText(value=0, min=0, max=10 ** 6, description="seed")
+        self.animated = widgets.Checkbox(value=False, description="animate")
+        self.output = widgets.Output()
+        for control in (self.preset, self.forward, self.sideways, self.turning, self.seed, self.animated):
+            control.observe(lambda change: self.redraw(), names="value")
+        self.widget = widgets.VBox([widgets.HBox([self.preset, self.seed, self.animated]),
+                                    widgets.HBox([self.forward, self.sideways, self.turning]), self.output])
+
+    def control(self, preset: str | None = None, forward: float | None = None, sideways: float | None = None,
+                turning: float | None = None) -> np.ndarray:
+        """The control ``(frames, 3)`` for these settings (default: the widgets' values)."""
+        from .synthetic import preset_control, walked_control
+        preset = self.preset.value if preset is None else preset
+        if preset == "sliders":
+            values = [self.forward.value if forward is None else forward,
+                      self.sideways.value if sideways is None else sideways,
+                      self.turning.value if turning is None else turning]
+            ramp = preset_control("walk", self.duration_s, self.fps)[:, :1] / 1.3      # 0 -> 1 over a second
+            control = ramp * np.asarray(values, dtype=np.float64)[None]
+        else:
+            control = preset_control(preset, self.duration_s, self.fps)
+        return walked_control(control, self.fps) if self.walked else control
+
+    def motion(self, seed: int | None = None, **settings) -> np.ndarray:
+        """The generated features ``(frames, 66)`` for these settings."""
+        seed = self.seed.value if seed is None else seed
+        return np.asarray(self.generate(self.control(**settings), seed))
+
+    def _title(self, seed, settings) -> str:
+        preset = settings.get("preset") or self.preset.value
+        if preset == "sliders":
+            values = [settings.get(k) if settings.get(k) is not None else getattr(self, k).value
+                      for k in ("forward", "sideways", "turning")]
+            preset = "forward {:+.1f} m/s, left {:+.1f} m/s, turn {:+.1f} rad/s".format(*values)
+        return f"{preset}, seed {self.seed.value if seed is None else seed}"
+
+    def figure(self, seed: int | None = None, **settings):
+        """:func:`viz.plot_motion` of the response (headless: pass ``preset=``, ``forward=``, ...)."""
+        return viz.plot_motion(self.motion(seed, **settings), self.fps, title=self._title(seed, settings))
+
+    def animation(self, seed: int | None = None, step: int = 2, **settings):
+        """The response as a ``FuncAnimation`` (:func:`viz.animate`), every ``step``-th frame."""
+        from .representation import to_positions
+        positions = to_positions(self.motion(seed, **settings), self.fps)
+        return viz.animate(positions, self.fps, titles=[self._title(seed, settings)], step=step)
+
+    def redraw(self) -> None:
+        if not self.animated.value:
+            return super().redraw()
+        from IPython.display import HTML
+        with self.output:
+            clear_output(wait=True)
+            anim = self.animation()
+            display(HTML(viz.to_html(anim)))
+            plt.close(anim._fig)

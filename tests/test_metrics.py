@@ -64,3 +64,50 @@ def test_summarize_units(walk):
     s = metrics.summarize(walk, 20)
     assert set(s) == {"foot skating (cm/s)", "bone-length drift (%)"}
     assert all(np.isfinite(v) and v >= 0 for v in s.values())
+
+
+def test_stepping_speed_sees_steps_not_travel():
+    import numpy as np
+    from motionlab import representation as rep
+    from motionlab import synthetic
+    walk = rep.to_features(synthetic.generate(np.tile([1.3, 0.0, 0.0], (80, 1)), 20.0).positions, 20.0)
+    stand = rep.to_features(synthetic.generate(np.zeros((80, 3)), 20.0).positions, 20.0)
+    glide = stand.copy()
+    glide[:, rep.CONTROL] = walk[:, rep.CONTROL]                   # moving through space without stepping
+    speed = metrics.stepping_speed(walk, 20.0)
+    assert speed.shape == (79,)
+    assert 0.8 < speed[20:].mean() < 2.0
+    assert metrics.stepping_speed(stand, 20.0).mean() < 0.02
+    assert metrics.stepping_speed(glide, 20.0).mean() < 0.02
+    batch = metrics.stepping_speed(np.stack([walk, stand]), 20.0)
+    assert batch.shape == (2, 79) and np.allclose(batch[0], speed)
+    with pytest.raises(ValueError, match="features"):
+        metrics.stepping_speed(walk[:1], 20.0)
+    with pytest.raises(ValueError, match="features"):
+        metrics.stepping_speed(np.zeros((10, 5)), 20.0)
+
+
+def test_pose_spread_is_zero_for_a_frozen_pose():
+    import numpy as np
+    from motionlab import representation as rep
+    from motionlab import synthetic
+    walk = rep.to_features(synthetic.generate(np.tile([1.3, 0.0, 0.0], (80, 1)), 20.0).positions, 20.0)
+    frozen = np.repeat(walk[:1], 80, axis=0)
+    assert metrics.pose_spread(frozen) < 1e-12
+    assert 0.02 < metrics.pose_spread(walk) < 0.3
+    assert metrics.pose_spread(np.stack([walk, frozen])).shape == (2,)
+
+
+def test_stepping_speed_smoothing_ignores_jitter_but_keeps_steps():
+    import numpy as np
+    from motionlab import representation as rep
+    from motionlab import synthetic
+    walk = rep.to_features(synthetic.generate(np.tile([1.3, 0.0, 0.0], (80, 1)), 20.0).positions, 20.0)
+    stand = rep.to_features(synthetic.generate(np.zeros((80, 3)), 20.0).positions, 20.0)
+    shaky = stand + np.random.default_rng(0).normal(0, 0.01, stand.shape)          # 1 cm of jitter per frame
+    assert metrics.stepping_speed(shaky, 20.0).mean() > 0.2                        # raw: jitter looks like stepping
+    assert metrics.stepping_speed(shaky, 20.0, smooth_s=0.1).mean() < 0.1
+    kept = metrics.stepping_speed(walk, 20.0, smooth_s=0.1)[20:-20].mean() / metrics.stepping_speed(walk, 20.0)[20:-20].mean()
+    assert 0.7 < kept <= 1.0
+    with pytest.raises(ValueError, match="smooth_s"):
+        metrics.stepping_speed(walk, 20.0, smooth_s=-1)

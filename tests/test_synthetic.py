@@ -149,3 +149,34 @@ def test_bad_arguments_are_value_errors():
         syn.random_control(0, 20)
     with pytest.raises(ValueError, match="n_clips"):
         syn.dataset(0)
+
+
+def test_preset_controls_start_from_standing_and_reach_their_targets():
+    import numpy as np
+    from motionlab import synthetic
+    targets = {"stand still": [0, 0, 0], "walk": [1.3, 0, 0], "run": [3.2, 0, 0], "circle": [1.2, 0, 0.6],
+               "side-step": [0, 0.5, 0], "backwards": [-0.8, 0, 0], "walk, then stop": [0, 0, 0]}
+    assert set(targets) == set(synthetic.PRESETS)
+    for name, target in targets.items():
+        control = synthetic.preset_control(name, duration_s=6.0, fps=20.0)
+        assert control.shape == (120, 3)
+        assert np.allclose(control[0], 0.0), name
+        assert np.allclose(control[-1], target), name
+    stop = synthetic.preset_control("walk, then stop", 6.0, 20.0)
+    assert stop[:, 0].max() > 1.2 and np.allclose(stop[-10:], 0.0)
+    with pytest.raises(ValueError, match="name"):
+        synthetic.preset_control("moonwalk")
+    with pytest.raises(ValueError, match="duration_s"):
+        synthetic.preset_control("walk", duration_s=0)
+
+
+def test_walked_control_follows_the_path_with_the_stride_sway():
+    import numpy as np
+    from motionlab import synthetic
+    drawn = synthetic.preset_control("walk", 6.0, 20.0)
+    walked = synthetic.walked_control(drawn, 20.0)
+    assert walked.shape == drawn.shape
+    steady = slice(40, 120)
+    assert abs(walked[steady, 0].mean() - 1.3) < 0.05               # the same speed on average
+    assert walked[steady, 1].std() > 0.05                           # hips sway sideways with each step
+    assert drawn[steady, 1].std() == 0.0

@@ -139,3 +139,48 @@ def test_command_line_trains_and_saves(tmp_path, capsys):
     with pytest.raises(SystemExit):
         cli.main(["conv_ae", "--set", "filters=many"])
     assert "is not a int" in capsys.readouterr().err
+
+
+def test_cli_overrides_parse_tuple_fields():
+    from motionlab.models.glow import GlowConfig
+    from motionlab.train import parse_overrides
+    assert parse_overrides(GlowConfig, ["constant_features=0,2,4"]) == {"constant_features": (0, 2, 4)}
+    with pytest.raises(ValueError, match="constant_features"):
+        parse_overrides(GlowConfig, ["constant_features=a,b"])
+
+
+def test_train_or_load_prefers_a_matching_pretrained_checkpoint_and_never_writes_it(tmp_path, prepared):
+    config = ConvAEConfig(window=40, filters=8)
+    fast = training.TrainConfig(epochs=1, progress=False)
+    shipped = tmp_path / "shipped.pt"
+    torch.manual_seed(1)
+    original = ConvAutoencoder(config)
+    training.save_checkpoint(shipped, original, prepared, training.History(seconds=123.0), half=True)
+    stamp = shipped.stat().st_mtime_ns
+    cache = tmp_path / "cache.pt"
+    model, history = training.train_or_load(cache, ConvAutoencoder(config), prepared, fast, pretrained=shipped)
+    assert history.seconds == 123.0 and not cache.exists()                # loaded, nothing trained
+    for name, value in original.state_dict().items():                     # float16 on disk, float32 back
+        assert model.state_dict()[name].dtype == value.dtype
+        assert torch.allclose(model.state_dict()[name], value, rtol=1e-3, atol=1e-4)
+    # another config: the shipped file does not fit, so it trains and caches elsewhere
+    other, _ = training.train_or_load(cache, ConvAutoencoder(ConvAEConfig(window=40, filters=4)), prepared, fast,
+                                      pretrained=shipped)
+    assert cache.exists() and shipped.stat().st_mtime_ns == stamp
+    # retrain=True ignores both
+    training.train_or_load(cache, ConvAutoencoder(config), prepared, fast, pretrained=shipped, retrain=True)
+    assert shipped.stat().st_mtime_ns == stamp
+
+
+def test_shipped_moglow_checkpoints_fit_the_default_config():
+    # data/checkpoints holds what `make checkpoints` makes; notebook 06 relies on them matching
+    from dataclasses import replace
+    from pathlib import Path
+    from motionlab.models.moglow import MoGlowConfig
+    folder = Path(__file__).resolve().parents[1] / "data" / "checkpoints"
+    default = MoGlowConfig()
+    for name, config in [("dropout", default), ("no_dropout", replace(default, dropout=0.0)),
+                         ("markov", replace(default, recurrent=False))]:
+        checkpoint = training.load_checkpoint(folder / f"moglow_{name}.pt", config=config)
+        assert checkpoint.description["source"] == "synthetic" and checkpoint.description["window_frames"] == 40
+        assert len(checkpoint.history.train) == 1760

@@ -48,3 +48,37 @@ def test_latent_sliders_map_probabilities_and_render_headless(clips):
         widgets.LatentSliders(decode, latent=6, axes=[6], fps=20)
     with pytest.raises(ValueError, match="probabilities: expected 2 values"):
         sliders.latent_vector([0.5])
+
+
+def test_control_panel_builds_controls_and_renders_headless(monkeypatch):
+    import numpy as np
+    from motionlab import representation as rep
+    from motionlab import synthetic
+
+    calls = []
+
+    def generate(control, seed):
+        # a stand-in model: the synthetic walker itself, following the control
+        calls.append((control.copy(), seed))
+        return rep.to_features(synthetic.generate(control, 20.0).positions, 20.0)
+
+    panel = widgets.ControlPanel(generate, fps=20.0, duration_s=3.0, walked=False)
+    sliders = panel.control(preset="sliders", forward=2.0, sideways=0.0, turning=0.5)
+    assert sliders.shape == (60, 3)
+    assert np.allclose(sliders[0], 0.0) and np.allclose(sliders[-1], [2.0, 0.0, 0.5])
+    assert np.allclose(panel.control(preset="backwards")[-1], [-0.8, 0.0, 0.0])
+    fig = panel.figure(preset="circle", seed=3)
+    assert len(fig.axes) == 2 and calls[-1][1] == 3
+    plt.close(fig)
+    # the widgets drive the same figure
+    redraws = []
+    monkeypatch.setattr(panel, "redraw", lambda: redraws.append(panel.preset.value))
+    panel.preset.value = "run"
+    assert redraws == ["run"]
+    walked = widgets.ControlPanel(generate, fps=20.0, duration_s=3.0).control(preset="walk")
+    assert walked[-20:, 1].std() > 0.02 > sliders[-20:, 1].std()      # the walker's sway, not a flat line
+    anim = panel.animation(preset="stand still", step=4)
+    assert anim is not None
+    plt.close(anim._fig)
+    with pytest.raises(ValueError, match="duration_s"):
+        widgets.ControlPanel(generate, fps=20.0, duration_s=0)

@@ -8,4 +8,5 @@ MODELS = {
     "vae_lstm": ("motionlab.models.vae_lstm", "VAELSTM", "VAELSTMConfig"),
     "lstm": ("motionlab.models.lstm", "MotionLSTM", "LSTMConfig"),
     "glow": ("motionlab.models.glow", "Glow", "GlowConfig"),
+    "moglow": ("motionlab.models.moglow", "MoGlow", "MoGlowConfig"),
 }

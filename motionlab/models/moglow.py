@@ -1,0 +1,531 @@
+"""MoGlow: autoregressive, controllable Glow for motion (Henter et al. 2020, §4-5).
+
+The fixed-length Glow of :mod:`motionlab.models.glow` draws a whole window at once. MoGlow
+draws *one frame at a time*: a Glow flow over the pose of frame ``t`` alone (``L = 1``, no
+squeeze, §4.2), whose affine couplings see
+
+* the ``τ`` previous poses ``x_{t-τ:t-1}`` (the autoregressive history, eq. 16),
+* the control of frames ``t-τ .. t`` (forward, sideways and turning velocity; never the
+  future's, so control has zero latency),
+* and, inside each coupling network, an LSTM state ``h_t`` carried through time (eq. 17)::
+
+    p(x | c) = p(x_{1:τ} | c_{1:τ}) · Π_{t>τ} p(x_t | x_{t-τ:t-1}, c_{t-τ:t}, h_t)     eq. 16
+    h_{t+1}  = g(x_{t-τ:t-1}, c_{t-τ:t}, h_t)                                         eq. 17
+    [s'_t, t'_t] = A_n(b_lo_t, x_{t-τ:t-1}, c_{t-τ:t}, h_t)                           eq. 18
+
+Training sees whole windows: the history of every frame is the *true* one (teacher
+forcing), so the LSTMs run over all ``T - τ`` predicted frames in one call, from a zero
+state (footnote 2: the first ``τ`` frames are given, not modelled). Sampling starts from
+``τ`` given frames and generates one frame per step, feeding each back as history and
+carrying the LSTM states (:class:`MoGlowStream`, the real-time API).
+
+**Dropout on the history (§5.3).** During training each history frame is dropped (set to
+0, the data mean in normalised units) with probability ``dropout`` (0.95 in the paper),
+independently for every predicted frame and lag. Kept frames are passed on as they are,
+not scaled up by ``1 / (1 - dropout)`` as ordinary dropout would: a dropped frame is
+"unknown", not "weak", and the LSTMs see poses in the same range in training and in
+generation (the paper does not say; scaling made no difference we could measure in 10
+epochs, and trained no better). The control is never dropped. Without dropout the model
+learns to continue the motion in its history and ignores the control (notebook 06).
+
+Like :class:`~motionlab.models.glow.Glow` the model works on normalised features
+``(batch, frames, 66)`` (63 pose + 3 control, :func:`motionlab.data.prepare`) and leaves
+the hips' root-local ``x`` and ``z`` (always 0) out of the flow: 61 modelled values per
+frame. ``loss`` is the NLL in nats per modelled value; :meth:`MoGlow.nll` reports bits per
+predicted frame.
+
+Everything here reuses :mod:`motionlab.models.flows` unchanged: the coupling network is
+the pluggable part (:class:`LSTMCouplingNet` here; the Markovian variant of §4.2 uses
+:class:`~motionlab.models.flows.MLPCouplingNet`).
+"""
+from __future__ import annotations
+
+import math
+from contextlib import contextmanager
+from dataclasses import dataclass, replace
+from functools import partial
+
+import numpy as np
+import torch
+from torch import nn
+
+from .flows import _LOG_SIGMOID_SHIFT, SCALE_SHIFT, FlowSequence, FlowStep, GaussianPrior, MLPCouplingNet
+
+
+@dataclass(frozen=True)
+class MoGlowConfig:
+    """Sizes and options. Defaults: a laptop model (40 epochs on the built-in data take
+    2 minutes on 2 CPU cores): ``K = 4`` steps, one LSTM layer of 64 units per coupling,
+    2-s training windows (half the paper's: half the cost per step) and history dropout
+    0.7 (at this budget 0.95 leaves too little to learn from). :meth:`paper` is §5.1-5.3's.
+
+    Attributes:
+        n_features: features per frame (66: 63 pose + 3 control).
+        n_control: the last ``n_control`` features are the control ``c_t``.
+        window: frames per training window (80 = 4 s at 20 fps, §5.1): ``history`` given
+            frames, then ``window - history`` predicted ones.
+        fps: frames per second of the data the model expects.
+        history: ``τ``, previous poses each frame is conditioned on (§5.2: 10 = 0.5 s).
+        steps: ``K``, steps of flow (§5.2: 16).
+        hidden: units of each coupling network's LSTM layers (§5.2: 512).
+        lstm_layers: LSTM layers per coupling network (§5.2: 2).
+        recurrent: LSTM couplings (MoGlow) or feed-forward ones (the Markov model of
+            eq. 12, two hidden layers of ``hidden`` units).
+        dropout: probability of dropping a history frame during training (§5.3: 0.95).
+        constant_features: pose features that are 0 in every frame and are left out of
+            the flow (the hips' root-local ``x`` and ``z``).
+    """
+
+    n_features: int = 66
+    n_control: int = 3
+    window: int = 40
+    fps: float = 20.0
+    history: int = 10
+    steps: int = 4
+    hidden: int = 64
+    lstm_layers: int = 1
+    recurrent: bool = True
+    dropout: float = 0.7
+    constant_features: tuple[int, ...] = (0, 2)
+
+    def __post_init__(self):
+        object.__setattr__(self, "constant_features", tuple(int(i) for i in self.constant_features))
+        if min(self.history, self.steps, self.hidden, self.lstm_layers) < 1:
+            raise ValueError(f"history, steps, hidden and lstm_layers: need at least 1 each, got {self.history}, "
+                             f"{self.steps}, {self.hidden}, {self.lstm_layers}")
+        if self.window <= self.history:
+            raise ValueError(f"window: {self.window} frames leaves nothing to predict after history={self.history}")
+        if not 0.0 <= self.dropout < 1.0:
+            raise ValueError(f"dropout: expected a probability in [0, 1), got {self.dropout}")
+        if not 0 < self.n_control < self.n_features:
+            raise ValueError(f"n_control: expected 1 .. {self.n_features - 1}, got {self.n_control}")
+        n_pose = self.n_features - self.n_control
+        bad = [i for i in self.constant_features if not 0 <= i < n_pose]
+        if bad:
+            raise ValueError(f"constant_features: {bad} are not pose features (0 .. {n_pose - 1})")
+
+    @classmethod
+    def paper(cls, **changes) -> "MoGlowConfig":
+        """§5.2: ``K = 16`` steps, ``L = 1``, couplings with 2 LSTM layers of 512 units,
+        ``τ = 10``; §5.1: 4-s windows at 20 fps; §5.3: dropout 0.95."""
+        return replace(cls(steps=16, hidden=512, lstm_layers=2, history=10, window=80, fps=20.0, dropout=0.95),
+                       **changes)
+
+
+class LSTMCouplingNet(nn.Module):
+    """``A_n`` of eq. 18: an LSTM over ``[b_lo_t, conditioning_t]``, then a zero-initialised
+    linear layer to the shift and scale (so each coupling starts as the identity).
+
+    ``forward(lo, cond)`` takes ``(batch, frames, in)`` and ``(batch, frames, cond)`` and
+    returns ``(batch, frames, out)``. It starts from a zero state, unless the network is
+    :attr:`carrying` (sampling): then it starts from the state the previous call left, and
+    stores the new one, so one call per frame runs the LSTM through time (eq. 17).
+    """
+
+    def __init__(self, in_channels: int, cond_channels: int, out_channels: int,
+                 hidden: int = 128, layers: int = 1):
+        super().__init__()
+        self.lstm = nn.LSTM(in_channels + cond_channels, hidden, num_layers=layers, batch_first=True)
+        self.output = nn.Linear(hidden, out_channels)
+        nn.init.zeros_(self.output.weight)
+        nn.init.zeros_(self.output.bias)
+        self.carrying = False
+        self.state: tuple[torch.Tensor, torch.Tensor] | None = None
+
+    def forward(self, lo: torch.Tensor, cond: torch.Tensor | None = None) -> torch.Tensor:
+        inputs = lo if cond is None else torch.cat([lo, cond], dim=-1)
+        hidden, state = self.lstm(inputs, self.state if self.carrying else None)
+        if self.carrying:
+            self.state = state
+        return self.output(hidden)
+
+
+class MoGlow(nn.Module):
+    """The autoregressive MoGlow of §4.2 (or its Markov variant, ``recurrent=False``).
+
+    Batches are normalised feature windows ``(batch, frames, n_features)`` with
+    ``frames > history``; the first ``history`` frames are conditioning only.
+    """
+
+    def __init__(self, config: MoGlowConfig = MoGlowConfig()):
+        super().__init__()
+        self.config = config
+        n_pose = config.n_features - config.n_control
+        modelled = [i for i in range(n_pose) if i not in config.constant_features]
+        self.register_buffer("modelled", torch.tensor(modelled), persistent=False)
+        self.register_buffer("constant", torch.tensor(sorted(set(config.constant_features)), dtype=torch.long),
+                             persistent=False)
+        self.control = slice(n_pose, config.n_features)
+        self.n_modelled = len(modelled)
+        # the conditioning of frame t: τ previous poses, then the control of frames t-τ .. t
+        self.cond_channels = config.history * self.n_modelled + (config.history + 1) * config.n_control
+        if config.recurrent:
+            network = partial(LSTMCouplingNet, hidden=config.hidden, layers=config.lstm_layers)
+        else:
+            network = partial(MLPCouplingNet, hidden=config.hidden)
+        self.flow = FlowSequence(FlowStep(self.n_modelled, network, self.cond_channels)
+                                 for _ in range(config.steps))
+        self.prior = GaussianPrior()
+
+    # -- data in and out -----------------------------------------------------------------
+
+    def _check(self, batch: torch.Tensor, name: str = "batch", min_frames: int | None = None) -> None:
+        n = self.config.n_features
+        min_frames = self.config.history + 1 if min_frames is None else min_frames
+        if not isinstance(batch, torch.Tensor) or batch.ndim != 3 or batch.shape[-1] != n \
+                or batch.shape[1] < min_frames:
+            shape = tuple(batch.shape) if isinstance(batch, torch.Tensor) else type(batch).__name__
+            raise ValueError(f"{name}: expected (batch, frames >= {min_frames}, {n}) normalised features, got {shape}")
+        if len(self.constant) and batch[..., self.constant].abs().max() > 1e-4:
+            raise ValueError(f"{name}: features {self.config.constant_features} should be 0 in every frame "
+                             f"(constant_features), got values up to {batch[..., self.constant].abs().max():.3g}")
+
+    def join_features(self, x: torch.Tensor, control: torch.Tensor) -> torch.Tensor:
+        """Modelled pose ``(batch, frames, n_modelled)`` and control ``(batch, frames,
+        n_control)`` -> features ``(batch, frames, n_features)`` (constant features 0)."""
+        features = x.new_zeros(x.shape[:2] + (self.config.n_features,))
+        features[..., self.modelled] = x
+        features[..., self.control] = control
+        return features
+
+    def conditioning(self, poses: torch.Tensor, control: torch.Tensor, drop: bool = False) -> torch.Tensor:
+        """The conditioning of every predicted frame (eq. 18), ``(batch, frames - τ, cond_channels)``.
+
+        Args:
+            poses: modelled poses ``(batch, frames, n_modelled)``.
+            control: ``(batch, frames, n_control)``.
+            drop: apply the history dropout of §5.3 (training).
+
+        Frame ``t = τ .. frames-1`` gets ``[x_{t-τ}, ..., x_{t-1}, c_{t-τ}, ..., c_t]`` flattened.
+        """
+        tau = self.config.history
+        history = poses[:, :-1].unfold(1, tau, 1)                 # (batch, frames-τ, n_modelled, τ)
+        if drop and self.config.dropout > 0:
+            keep = 1.0 - self.config.dropout
+            mask = torch.bernoulli(history.new_full(history.shape[:2] + (1, tau), keep))
+            history = history * mask                             # per frame: all of its values or none
+        controls = control.unfold(1, tau + 1, 1)                  # (batch, frames-τ, n_control, τ+1)
+        return torch.cat([history.transpose(2, 3).flatten(2), controls.transpose(2, 3).flatten(2)], dim=-1)
+
+    @staticmethod
+    def frame_conditioning(history: torch.Tensor, controls: torch.Tensor) -> torch.Tensor:
+        """The conditioning of one new frame, ``(batch, 1, cond_channels)``, from the ``τ``
+        previous modelled poses ``(batch, τ, n_modelled)`` and the controls of those frames
+        and the new one ``(batch, τ + 1, n_control)``; laid out as :meth:`conditioning`."""
+        return torch.cat([history.flatten(1), controls.flatten(1)], dim=1)[:, None]
+
+    # -- likelihood (eq. 16) -------------------------------------------------------------
+
+    def log_likelihood(self, batch: torch.Tensor) -> torch.Tensor:
+        """``Σ_{t>τ} ln p(x_t | x_{t-τ:t-1}, c_{t-τ:t}, h_t)`` of each window, nats,
+        normalised units, ``(batch,)``. The first ``τ`` frames are given (footnote 2)."""
+        self._check(batch)
+        poses, control = batch[..., self.modelled], batch[..., self.control]
+        cond = self.conditioning(poses, control, drop=self.training)
+        z, logdet = self.flow(poses[:, self.config.history:], cond)
+        return self.prior.log_prob(z) + logdet
+
+    def loss(self, batch: torch.Tensor) -> dict[str, torch.Tensor]:
+        """NLL in nats per modelled value (``"loss"``) and in bits per predicted frame."""
+        frames = batch.shape[1] - self.config.history
+        nll = -self.log_likelihood(batch).mean()
+        return {"loss": nll / (frames * self.n_modelled), "bits_per_frame": nll / frames / math.log(2)}
+
+    @torch.no_grad()
+    def nll(self, windows: torch.Tensor, normalizer=None, batch_size: int = 64) -> dict[str, float]:
+        """Mean NLL of the predicted frames of ``windows`` ``(n, frames, n_features)``.
+
+        ``"nats/frame"`` and ``"bits/frame"``: normalised units, or, given the
+        :class:`motionlab.data.Normalizer`, the data's units (metres), adding ``Σ_d ln σ_d``
+        over the modelled features to every frame. Evaluated without dropout.
+        """
+        was_training = self.training
+        self.eval()
+        try:
+            total = torch.cat([-self.log_likelihood(chunk) for chunk in torch.split(windows, batch_size)])
+        finally:
+            self.train(was_training)
+        per_frame = float(total.mean()) / (windows.shape[1] - self.config.history)
+        if normalizer is not None:
+            per_frame += float(np.log(np.asarray(normalizer.std)[self.modelled.cpu().numpy()]).sum())
+        return {"nats/frame": per_frame, "bits/frame": per_frame / math.log(2)}
+
+    # -- sampling ------------------------------------------------------------------------
+
+    @contextmanager
+    def carrying_state(self):
+        """Within this block the LSTM couplings carry their state from call to call,
+        starting from zero (``h_{τ+1} = 0``, footnote 2)."""
+        networks = [m for m in self.modules() if isinstance(m, LSTMCouplingNet)]
+        for network in networks:
+            network.carrying, network.state = True, None
+        try:
+            yield
+        finally:
+            for network in networks:
+                network.carrying, network.state = False, None
+
+    def _check_sampling(self, control: torch.Tensor, history: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        device = self.modelled.device
+        history = torch.as_tensor(history, dtype=torch.float32, device=device)
+        control = torch.as_tensor(control, dtype=torch.float32, device=device)
+        tau, c = self.config.history, self.config.n_control
+        if history.ndim != 3 or history.shape[1] != tau:
+            raise ValueError(f"history: expected the {tau} frames before the first generated one, "
+                             f"(batch, {tau}, {self.config.n_features}), got {tuple(history.shape)}")
+        self._check(history, "history", min_frames=tau)
+        if control.ndim != 3 or control.shape[0] != history.shape[0] or control.shape[2] != c or control.shape[1] < 1:
+            raise ValueError(f"control: expected ({history.shape[0]}, frames, {c}) normalised, one row per frame "
+                             f"to generate, got {tuple(control.shape)}")
+        return control, history
+
+    @torch.no_grad()
+    def sample(self, control: torch.Tensor, history: torch.Tensor, temperature: float = 1.0,
+               noise: torch.Tensor | None = None, generator: torch.Generator | None = None) -> torch.Tensor:
+        """Generate ``frames`` new frames, one at a time (Fig. 3), through the flow's own
+        inverse. This is the reference sampler; :class:`MoGlowStream` is the fast one.
+
+        Args:
+            control: the control of the frames to generate, normalised, ``(batch, frames, n_control)``.
+            history: the ``τ`` frames before them, normalised features ``(batch, τ, n_features)``.
+            temperature: the prior's standard deviation (1: the model; 0: the mode ``z = 0``).
+            noise: standard-normal ``ε`` ``(batch, frames, n_modelled)``; ``z = temperature · ε``
+                (default: drawn with ``generator``).
+            generator: a ``torch.Generator`` for reproducible samples.
+
+        Returns:
+            The generated frames, normalised features ``(batch, frames, n_features)``, with
+            the given control copied in.
+        """
+        control, history = self._check_sampling(control, history)
+        batch, frames = control.shape[:2]
+        noise = self._noise(noise, (batch, frames, self.n_modelled), generator)
+        tau = self.config.history
+        poses = history[..., self.modelled]
+        controls = torch.cat([history[..., self.control], control], dim=1)
+        was_training = self.training
+        self.eval()
+        try:
+            with self.carrying_state():
+                for t in range(frames):
+                    cond = self.frame_conditioning(poses[:, -tau:], controls[:, t:t + tau + 1])
+                    x = self.flow.inverse(temperature * noise[:, t:t + 1], cond)
+                    poses = torch.cat([poses, x], dim=1)
+        finally:
+            self.train(was_training)
+        return self.join_features(poses[:, tau:], control)
+
+    def _noise(self, noise, shape, generator):
+        temperature_free = self.prior.sample(shape, 1.0, generator, device=self.modelled.device) \
+            if noise is None else torch.as_tensor(noise, dtype=torch.float32, device=self.modelled.device)
+        if tuple(temperature_free.shape) != tuple(shape):
+            raise ValueError(f"noise: expected {tuple(shape)}, got {tuple(temperature_free.shape)}")
+        return temperature_free
+
+    def generate(self, control, history, normalizer, n: int = 1, temperature: float = 1.0,
+                 seed: int = 0) -> np.ndarray:
+        """Generate motion for a control signal, in the data's units (the notebooks' entry point).
+
+        Args:
+            control: ``(frames, n_control)`` (the same for all ``n`` samples) or ``(n, frames,
+                n_control)``: forward, sideways (m/s) and turning (rad/s) of each new frame.
+            history: the ``τ`` frames to continue, features ``(τ, n_features)`` or ``(n, τ, n_features)``.
+            normalizer: the :class:`motionlab.data.Normalizer` the model was trained with.
+            n: samples (streams run as one batch).
+            temperature: the prior's standard deviation.
+            seed: seeds the noise.
+
+        Returns:
+            Features ``(n, τ + frames, n_features)`` in the data's units: the history, then
+            the generated frames (turn them into world positions with
+            :func:`motionlab.representation.to_positions`).
+        """
+        control = np.asarray(control, dtype=np.float32)
+        history = np.asarray(history, dtype=np.float32)
+        control = np.broadcast_to(control, (n, *control.shape)) if control.ndim == 2 else control
+        history = np.broadcast_to(history, (n, *history.shape)) if history.ndim == 2 else history
+        if control.ndim != 3 or len(control) != n or len(history) != n:
+            raise ValueError(f"control, history: expected (frames, c) / (tau, f) or {n} of each, "
+                             f"got {control.shape} and {history.shape}")
+        stream = self.stream(torch.tensor(history), temperature, torch.Generator().manual_seed(seed), normalizer)
+        frames = stream.run(torch.tensor(control)).cpu().numpy()
+        return np.concatenate([history, frames], axis=1)
+
+    def stream(self, history: torch.Tensor, temperature: float = 1.0, generator: torch.Generator | None = None,
+               normalizer=None) -> "MoGlowStream":
+        """A :class:`MoGlowStream` that continues ``history`` one control frame at a time."""
+        return MoGlowStream(self, history, temperature=temperature, generator=generator, normalizer=normalizer)
+
+    def describe(self) -> list[str]:
+        """What the model conditions on, and its size."""
+        c = self.config
+        kind = (f"LSTM {c.lstm_layers} x {c.hidden}" if c.recurrent else f"feed-forward 2 x {c.hidden} (Markov)")
+        weights = sum(p.numel() for p in self.parameters())
+        return [f"{c.steps} steps of flow over one frame: {self.n_modelled} pose values (L = 1, no squeeze)",
+                f"coupling networks: {kind}, each sees b_lo ({self.n_modelled // 2}) + conditioning "
+                f"({self.cond_channels} = {c.history} poses x {self.n_modelled} + {c.history + 1} controls x "
+                f"{c.n_control})",
+                f"parameters: {weights:,} ({4 * weights / 1e6:.1f} MB as float32)"]
+
+
+class MoGlowStream:
+    """Real-time MoGlow: feed one control frame, get one pose back (§4.2, Fig. 3).
+
+    Holds the last ``τ`` poses and controls and every coupling's LSTM state. At creation
+    it precomputes, once, what does not change from frame to frame: each step's ActNorm
+    scale, the inverse of each 1x1 map ``W^-1`` (so a frame costs matrix products, not
+    triangular solves), and the LSTM weights; :meth:`step` then runs the flow backwards
+    (coupling inverse -> ``W^-1`` -> ActNorm inverse, step ``K`` to 1) in inference mode.
+    Several streams (characters) run at once as a batch.
+
+    >>> stream = model.stream(history)            # (batch, τ, 66) normalised features
+    >>> frame = stream.step(control)              # (batch, 3) -> (batch, 66)
+
+    Args:
+        model: a trained :class:`MoGlow` with recurrent couplings.
+        history: the ``τ`` frames to start from ``(batch, τ, n_features)`` (normalised, or
+            in the data's units when ``normalizer`` is given).
+        temperature: the prior's standard deviation.
+        generator: a ``torch.Generator`` for the noise.
+        normalizer: a :class:`motionlab.data.Normalizer`: take and return features in the
+            data's units (metres, m/s, rad/s) instead of normalised ones.
+    """
+
+    def __init__(self, model: MoGlow, history, temperature: float = 1.0,
+                 generator: torch.Generator | None = None, normalizer=None):
+        if not model.config.recurrent:
+            raise ValueError("model: the stream needs recurrent (LSTM) couplings; use MoGlow.sample for a Markov model")
+        self.model, self.normalizer, self.generator = model, normalizer, generator
+        self.temperature = float(temperature)
+        if not (math.isfinite(self.temperature) and self.temperature >= 0):
+            raise ValueError(f"temperature: expected a finite number >= 0, got {temperature}")
+        device = model.modelled.device
+        if normalizer is not None:
+            self._mean = torch.as_tensor(np.asarray(normalizer.mean), dtype=torch.float32, device=device)
+            self._std = torch.as_tensor(np.asarray(normalizer.std), dtype=torch.float32, device=device)
+            history = (torch.as_tensor(history, dtype=torch.float32, device=device) - self._mean) / self._std
+            history[..., model.constant] = 0.0
+        dummy = torch.zeros(torch.as_tensor(history).shape[0], 1, model.config.n_control)
+        _, history = model._check_sampling(dummy, history)
+        self.batch = history.shape[0]
+        self.poses = history[..., model.modelled].clone()               # (batch, τ, n_modelled)
+        self.controls = history[..., model.control].clone()             # (batch, τ, n_control)
+        self.frames = 0
+        with torch.inference_mode():
+            self._steps = [self._precompute(step) for step in model.flow.blocks]
+        self._states = [None] * len(self._steps)
+
+    @staticmethod
+    def _precompute(step: FlowStep) -> dict:
+        actnorm, linear, coupling = step.actnorm, step.linear, step.coupling
+        w_inverse = torch.linalg.inv(linear.weight().double()).float()
+        return {"scale": torch.exp(-actnorm.log_scale).clone(), "bias": actnorm.bias.clone(),
+                "w_inverse_t": w_inverse.T.contiguous(), "n_lo": coupling.n_lo, "n_hi": coupling.n_hi,
+                "lstm": coupling.network.lstm, "output": coupling.network.output}
+
+    def _normalised_control(self, control) -> torch.Tensor:
+        c = self.model.config.n_control
+        control = torch.as_tensor(control, dtype=torch.float32, device=self.poses.device)
+        if control.ndim == 1:
+            control = control.expand(self.batch, -1)
+        if control.shape != (self.batch, c):
+            raise ValueError(f"control: expected ({self.batch}, {c}) (or ({c},) for every stream), "
+                             f"got {tuple(control.shape)}")
+        if not torch.isfinite(control).all():
+            raise ValueError("control: contains NaN or infinite values")
+        if self.normalizer is not None:
+            control = (control - self._mean[self.model.control]) / self._std[self.model.control]
+        return control
+
+    def step(self, control, noise: torch.Tensor | None = None) -> torch.Tensor:
+        """The next frame for ``control`` ``(batch, n_control)`` (or ``(n_control,)``).
+
+        Args:
+            control: this frame's control (normalised, or data units with a normaliser).
+            noise: standard-normal ``ε`` ``(batch, n_modelled)`` (default: drawn).
+
+        Returns:
+            The new frame's features ``(batch, n_features)``, normalised or in data units.
+        """
+        model = self.model
+        with torch.inference_mode():
+            control = self._normalised_control(control)
+            shape = (self.batch, model.n_modelled)
+            if noise is None:
+                noise = torch.randn(shape, generator=self.generator, device=self.poses.device)
+            elif tuple(noise.shape) != shape:
+                raise ValueError(f"noise: expected {shape}, got {tuple(noise.shape)}")
+            controls = torch.cat([self.controls, control[:, None]], dim=1)       # c_{t-τ .. t}
+            cond = MoGlow.frame_conditioning(self.poses, controls)[:, 0]
+            x = self.temperature * noise
+            for k in reversed(range(len(self._steps))):                          # f_K^-1 ... f_1^-1 undone
+                step = self._steps[k]
+                lo = x[:, :step["n_lo"]]
+                hidden, self._states[k] = step["lstm"](torch.cat([lo, cond], dim=1)[:, None], self._states[k])
+                h = step["output"](hidden[:, 0])
+                shift, raw_scale = h[:, :step["n_hi"]], h[:, step["n_hi"]:]
+                log_scale = nn.functional.logsigmoid(raw_scale + SCALE_SHIFT) - _LOG_SIGMOID_SHIFT
+                x = torch.cat([lo, x[:, step["n_lo"]:] * torch.exp(-log_scale) - shift], dim=1)   # eq. 6 inverted
+                x = x @ step["w_inverse_t"]                                                     # W^-1
+                x = (x - step["bias"]) * step["scale"]                                          # ActNorm^-1
+            self.poses = torch.cat([self.poses[:, 1:], x[:, None]], dim=1)
+            self.controls = controls[:, 1:]
+            self.frames += 1
+            frame = self.model.join_features(x[:, None], control[:, None])[:, 0]
+            if self.normalizer is not None:
+                frame = frame * self._std + self._mean
+                frame[:, model.constant] = 0.0
+        return frame.clone()
+
+    def run(self, control, noise: torch.Tensor | None = None) -> torch.Tensor:
+        """:meth:`step` over a whole control sequence ``(batch, frames, n_control)``:
+        ``(batch, frames, n_features)``."""
+        control = torch.as_tensor(control, dtype=torch.float32)
+        if control.ndim != 3 or control.shape[0] != self.batch:
+            raise ValueError(f"control: expected ({self.batch}, frames, {self.model.config.n_control}), "
+                             f"got {tuple(control.shape)}")
+        frames = [self.step(control[:, t], None if noise is None else noise[:, t]) for t in range(control.shape[1])]
+        return torch.stack(frames, dim=1)
+
+
+# ----------------------------------------------------------------------------------------
+# The findings of §5.3 as measurements (notebook 06, benchmarks/moglow.py)
+# ----------------------------------------------------------------------------------------
+
+def control_following(model: MoGlow, normalizer, start, temperature: float = 0.3, seconds: float = 4.0,
+                      seed: int = 0, smooth_s: float = 0.1) -> dict[str, float]:
+    """Does the body do what the control says (§5.3)? From real frames ``start``
+    ``(n, τ, n_features)`` (data units, e.g. walking), generate ``seconds`` with the control
+    of standing still and, separately, of walking at 1.3 m/s (through the synthetic walker);
+    return how fast the feet step relative to the body (:func:`motionlab.metrics.stepping_speed`,
+    ankles smoothed over ``smooth_s`` s, m/s) over the last half of each. A model that
+    follows the control steps when told to walk and stops when told to stand still.
+    """
+    from .. import metrics, synthetic
+    fps = model.config.fps
+    controls = {"stand still": synthetic.preset_control("stand still", seconds, fps),
+                "walk": synthetic.walked_control(synthetic.preset_control("walk", seconds, fps, ramp_s=0.01), fps)}
+    start = np.asarray(start)
+    half = int(seconds * fps / 2)
+    result = {}
+    for name, control in controls.items():
+        motion = model.generate(control, start, normalizer, n=len(start), temperature=temperature, seed=seed)
+        speed = metrics.stepping_speed(motion[:, model.config.history:], fps, smooth_s=smooth_s)
+        result[name] = float(speed[:, -half:].mean())
+    return result
+
+
+def long_sample_spread(model: MoGlow, normalizer, start, control, temperature: float = 0.3, seed: int = 0,
+                       window_s: float = 5.0) -> dict[str, float]:
+    """Does a long sample freeze into a static pose (§5.3)? Follow ``control`` ``(frames, 3)``
+    (data units) from ``start`` ``(n, τ, n_features)`` and return the pose spread
+    (:func:`motionlab.metrics.pose_spread`, metres) of the first and the last ``window_s``
+    seconds, averaged over the ``n`` samples."""
+    from .. import metrics
+    frames = int(window_s * model.config.fps)
+    if len(control) < 2 * frames:
+        raise ValueError(f"control: {len(control)} frames is shorter than two windows of {window_s} s")
+    motion = model.generate(control, np.asarray(start), normalizer, n=len(start), temperature=temperature,
+                            seed=seed)[:, model.config.history:]
+    return {"first": float(metrics.pose_spread(motion[:, :frames]).mean()),
+            "last": float(metrics.pose_spread(motion[:, -frames:]).mean())}

@@ -1,0 +1,248 @@
+"""MoGlow (Henter et al. 2020, §4-5): shapes, invertibility, conditioning, streaming, training."""
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+import torch
+
+from motionlab import data, training
+from motionlab.models.flows import MLPCouplingNet
+from motionlab.models.moglow import LSTMCouplingNet, MoGlow, MoGlowConfig, MoGlowStream
+
+SMALL = MoGlowConfig(window=16, history=4, steps=3, hidden=16)
+
+
+def features(n=5, frames=16, seed=0):
+    """Random normalised feature windows with the hips' x, z at 0."""
+    x = torch.randn(n, frames, 66, generator=torch.Generator().manual_seed(seed))
+    x[..., [0, 2]] = 0.0
+    return x
+
+
+def trained_like(config=SMALL, seed=0):
+    """A model whose couplings are no longer the identity (as if trained)."""
+    torch.manual_seed(seed)
+    model = MoGlow(config)
+    model.loss(features(8, config.window))                 # ActNorm's data-dependent initialisation
+    with torch.no_grad():
+        for module in model.modules():
+            if isinstance(module, (LSTMCouplingNet,)):
+                module.output.weight.normal_(0, 0.05)
+            if isinstance(module, MLPCouplingNet):
+                module.layers[-1].weight.normal_(0, 0.05)
+    return model.eval()
+
+
+def test_config_paper_and_errors():
+    paper = MoGlowConfig.paper()
+    assert (paper.steps, paper.hidden, paper.lstm_layers, paper.history, paper.window, paper.dropout) == \
+        (16, 512, 2, 10, 80, 0.95)
+    with pytest.raises(ValueError, match="window"):
+        MoGlowConfig(window=10, history=10)
+    with pytest.raises(ValueError, match="dropout"):
+        MoGlowConfig(dropout=1.0)
+    with pytest.raises(ValueError, match="constant_features"):
+        MoGlowConfig(constant_features=(64,))
+
+
+def test_shapes_and_conditioning_layout():
+    model = MoGlow(SMALL)
+    assert model.n_modelled == 61
+    assert model.cond_channels == 4 * 61 + 5 * 3
+    x = features(2, 9)
+    poses, control = x[..., model.modelled], x[..., model.control]
+    cond = model.conditioning(poses, control)
+    assert cond.shape == (2, 5, model.cond_channels)
+    # frame t = 4 + k sees poses k .. k+3 (oldest first), then controls k .. k+4
+    for k in range(5):
+        expected = model.frame_conditioning(poses[:, k:k + 4], control[:, k:k + 5])[:, 0]
+        assert torch.equal(cond[:, k], expected)
+        assert torch.equal(cond[:, k, :61], poses[:, k])
+        assert torch.equal(cond[:, k, -3:], control[:, k + 4])          # the current frame's control
+
+
+def test_loss_terms_and_units():
+    model = MoGlow(SMALL)
+    x = features(3, 16)
+    terms = model.loss(x)
+    assert set(terms) == {"loss", "bits_per_frame"}
+    frames = 16 - SMALL.history
+    # in nats per value; bits per frame is the same number rescaled
+    assert math.isclose(terms["bits_per_frame"].item(), terms["loss"].item() * 61 / math.log(2), rel_tol=1e-5)
+    nll = model.nll(x)
+    assert math.isclose(nll["bits/frame"], nll["nats/frame"] / math.log(2), rel_tol=1e-6)
+    assert math.isclose(nll["nats/frame"], -model.log_likelihood(x).mean().item() / frames, rel_tol=1e-5)
+
+
+def test_nll_in_data_units_adds_the_normalisation_jacobian():
+    model = trained_like()
+    x = features(4, 16)
+    std = np.full(66, 2.0)
+    normalizer = data.Normalizer(np.zeros(66), std)
+    assert math.isclose(model.nll(x, normalizer)["nats/frame"] - model.nll(x)["nats/frame"], 61 * math.log(2.0),
+                        rel_tol=1e-5)
+
+
+def test_one_frame_is_exactly_invertible_given_its_conditioning():
+    model = trained_like()
+    x = features(3, 5)                                          # τ = 4 history frames + 1 predicted
+    poses, control = x[..., model.modelled], x[..., model.control]
+    cond = model.conditioning(poses, control)
+    with torch.no_grad():
+        z, logdet = model.flow(poses[:, 4:], cond)
+        back = model.flow.inverse(z, cond)
+    assert not torch.equal(z, poses[:, 4:])
+    assert torch.allclose(back, poses[:, 4:], atol=1e-5)
+
+
+def test_log_likelihood_matches_frame_by_frame_with_carried_state():
+    # Training runs the LSTMs over a whole window; generation one frame at a time with the
+    # state carried: both must give the same density.
+    model = trained_like()
+    x = features(2, 12)
+    poses, control = x[..., model.modelled], x[..., model.control]
+    with torch.no_grad():
+        whole = model.log_likelihood(x)
+        cond = model.conditioning(poses, control)
+        total = torch.zeros(2)
+        with model.carrying_state():
+            for t in range(cond.shape[1]):
+                z, logdet = model.flow(poses[:, 4 + t:5 + t], cond[:, t:t + 1])
+                total += model.prior.log_prob(z) + logdet
+    assert torch.allclose(whole, total, atol=1e-3)
+
+
+def test_the_future_does_not_leak_into_the_past():
+    # Causality (eq. 16): changing frames after t leaves ln p(x_t | ...) of earlier frames alone.
+    model = trained_like()
+    x = features(1, 16)
+    later = x.clone()
+    later[:, 10:, 3:] += 1.0
+    with torch.no_grad():
+        z1, _ = model.flow(x[..., model.modelled][:, 4:], model.conditioning(x[..., model.modelled], x[..., model.control]))
+        z2, _ = model.flow(later[..., model.modelled][:, 4:],
+                           model.conditioning(later[..., model.modelled], later[..., model.control]))
+    assert torch.allclose(z1[:, :6], z2[:, :6], atol=1e-6)
+    assert not torch.allclose(z1[:, 6:], z2[:, 6:])
+
+
+def test_history_dropout_drops_whole_frames_and_keeps_the_control():
+    model = MoGlow(replace(SMALL, dropout=0.5))
+    torch.manual_seed(0)
+    x = features(64, 16)
+    poses, control = x[..., model.modelled], x[..., model.control]
+    clean = model.conditioning(poses, control)
+    dropped = model.conditioning(poses, control, drop=True)
+    history = dropped[..., :4 * 61].reshape(64, 12, 4, 61)
+    zero_frames = (history == 0).all(-1)
+    assert 0.35 < zero_frames.float().mean() < 0.65                 # about half the frames, each whole
+    kept = ~zero_frames
+    assert torch.equal(history[kept], clean[..., :4 * 61].reshape(64, 12, 4, 61)[kept])   # kept as they are
+    assert torch.equal(dropped[..., 4 * 61:], clean[..., 4 * 61:])     # the control is never dropped
+    # dropout only while training: evaluation is deterministic
+    model.eval()
+    assert torch.equal(model.log_likelihood(x), model.log_likelihood(x))
+
+
+def test_stream_equals_the_batch_sampler_for_the_same_noise():
+    model = trained_like()
+    x = features(3, 16)
+    history, control = x[:, :4], x[:, 4:, -3:]
+    noise = torch.randn(3, 12, 61, generator=torch.Generator().manual_seed(1))
+    reference = model.sample(control, history, temperature=0.7, noise=noise)
+    stream = model.stream(history, temperature=0.7)
+    streamed = torch.stack([stream.step(control[:, t], noise[:, t]) for t in range(12)], dim=1)
+    assert streamed.shape == reference.shape == (3, 12, 66)
+    assert torch.allclose(streamed, reference, atol=1e-4)
+    assert torch.equal(reference[..., -3:], control)                      # the control is copied in
+    assert torch.equal(reference[..., [0, 2]], torch.zeros(3, 12, 2))
+    assert stream.frames == 12
+
+
+def test_streams_in_a_batch_are_independent():
+    model = trained_like()
+    x = features(3, 16)
+    noise = torch.randn(3, 6, 61, generator=torch.Generator().manual_seed(2))
+    together = model.stream(x[:, :4]).run(x[:, 4:10, -3:], noise)
+    alone = model.stream(x[1:2, :4]).run(x[1:2, 4:10, -3:], noise[1:2])
+    assert torch.allclose(together[1:2], alone, atol=1e-5)
+
+
+def test_stream_in_data_units_with_a_normalizer():
+    model = trained_like()
+    mean, std = np.linspace(-1, 1, 66), np.linspace(0.5, 2.0, 66)
+    normalizer = data.Normalizer(mean, std)
+    x = features(2, 10)
+    in_units = normalizer.denormalize(x.numpy())
+    in_units[..., [0, 2]] = 0.0
+    noise = torch.randn(2, 61, generator=torch.Generator().manual_seed(3))
+    normalised = model.stream(x[:, :4]).step(x[:, 4, -3:], noise)
+    physical = model.stream(torch.tensor(in_units[:, :4]), normalizer=normalizer).step(
+        torch.tensor(in_units[:, 4, -3:]), noise)
+    expected = normalizer.denormalize(normalised.numpy())
+    expected[..., [0, 2]] = 0.0
+    assert np.allclose(physical.numpy(), expected, atol=1e-4)
+
+
+def test_temperature_zero_is_deterministic_and_sampling_is_reproducible():
+    model = trained_like()
+    x = features(2, 12)
+    a = model.sample(x[:, 4:, -3:], x[:, :4], temperature=0.0, generator=torch.Generator().manual_seed(0))
+    b = model.sample(x[:, 4:, -3:], x[:, :4], temperature=0.0, generator=torch.Generator().manual_seed(1))
+    assert torch.allclose(a, b)
+    c = model.sample(x[:, 4:, -3:], x[:, :4], generator=torch.Generator().manual_seed(5))
+    d = model.sample(x[:, 4:, -3:], x[:, :4], generator=torch.Generator().manual_seed(5))
+    assert torch.equal(c, d) and not torch.allclose(a, c)
+    assert torch.isfinite(c).all()
+
+
+def test_markov_variant_samples_and_refuses_to_stream():
+    model = trained_like(replace(SMALL, recurrent=False))
+    assert not any(isinstance(m, LSTMCouplingNet) for m in model.modules())
+    x = features(2, 10)
+    out = model.sample(x[:, 4:, -3:], x[:, :4])
+    assert out.shape == (2, 6, 66) and torch.isfinite(out).all()
+    with pytest.raises(ValueError, match="recurrent"):
+        MoGlowStream(model, x[:, :4])
+
+
+def test_bad_inputs_raise_value_errors_naming_the_argument():
+    model = MoGlow(SMALL)
+    with pytest.raises(ValueError, match="batch"):
+        model.loss(torch.zeros(2, 4, 66))                          # no frame after the history
+    with pytest.raises(ValueError, match="batch"):
+        model.loss(torch.zeros(2, 16, 65))
+    bad = features(2, 16)
+    bad[..., 0] = 1.0
+    with pytest.raises(ValueError, match="constant_features"):
+        model.loss(bad)
+    x = features(2, 16)
+    with pytest.raises(ValueError, match="history"):
+        model.sample(x[:, 4:, -3:], x[:, :3])
+    with pytest.raises(ValueError, match="control"):
+        model.sample(x[:1, 4:, -3:], x[:, :4])
+    with pytest.raises(ValueError, match="noise"):
+        model.sample(x[:, 4:, -3:], x[:, :4], noise=torch.zeros(2, 3, 61))
+    stream = model.stream(x[:, :4])
+    with pytest.raises(ValueError, match="control"):
+        stream.step(torch.zeros(3, 3))
+    with pytest.raises(ValueError, match="control"):
+        stream.step(torch.tensor([0.0, float("nan"), 0.0]))
+    with pytest.raises(ValueError, match="temperature"):
+        model.stream(x[:, :4], temperature=-1)
+
+
+def test_short_training_run_improves_the_likelihood():
+    torch.manual_seed(0)
+    clips = data.load("synthetic", fps=20, n_clips=8, duration_s=6)
+    prepared = data.prepare(clips, window_s=1.0)
+    model = MoGlow(replace(SMALL, window=20, history=5, hidden=32))
+    before = model.nll(prepared.val.windows)["bits/frame"]
+    history = training.train(model, prepared, training.TrainConfig(epochs=3, batch_size=32, lr=3e-3, progress=False))
+    after = model.nll(prepared.val.windows)["bits/frame"]
+    assert after < before - 20, (before, after)
+    assert np.isfinite([row["loss"] for row in history.train]).all()
+    assert not model.training
+    out = model.sample(prepared.test.windows[:2, 5:, -3:], prepared.test.windows[:2, :5], temperature=0.5)
+    assert torch.isfinite(out).all()
