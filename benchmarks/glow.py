@@ -28,19 +28,17 @@ import torch
 from motionlab import data, metrics, training
 from motionlab import representation as rep
 from motionlab.models.glow import Glow, GlowConfig
-from motionlab.skeleton import LOCOMOTION
 
 TEMPERATURES = (0.0, 0.5, 0.7, 1.0)
 
 
 def world(features: np.ndarray, fps: float) -> np.ndarray:
-    return np.stack([rep.to_positions(w, fps) for w in features])
+    return rep.to_positions(features, fps)
 
 
 def leg_swing(features: np.ndarray) -> float:
     """cm: std over each window of (left - right ankle) along the facing direction, mean over windows."""
-    left, right = LOCOMOTION.index("LeftFoot"), LOCOMOTION.index("RightFoot")
-    return 100 * float((features[..., 3 * left + 2] - features[..., 3 * right + 2]).std(axis=-1).mean())
+    return 100 * metrics.leg_swing(features)
 
 
 def train(source, config: GlowConfig, epochs: int):

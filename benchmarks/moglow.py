@@ -25,8 +25,9 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from motionlab import data, metrics, synthetic, training
+from motionlab import data, metrics, synthetic
 from motionlab import representation as rep
+from motionlab.models import moglow
 from motionlab.models.moglow import MoGlow, MoGlowConfig, control_following, long_sample_spread
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -34,15 +35,11 @@ TEMPERATURE = 0.3
 
 
 def models_for(prepared, config: MoGlowConfig, epochs: int, tag: str, retrain: bool) -> dict[str, MoGlow]:
-    variants = {"dropout 0.7": ("dropout", config), "no dropout": ("no_dropout", replace(config, dropout=0.0)),
-                "Markov": ("markov", replace(config, recurrent=False))}
+    labels = {"dropout 0.7": "dropout", "no dropout": "no_dropout", "Markov": "markov"}
     models = {}
-    for label, (name, variant) in variants.items():
-        torch.manual_seed(0)
-        model, history = training.train_or_load(
-            ROOT / "data" / "cache" / f"moglow_{tag}_{name}.pt", MoGlow(variant), prepared,
-            training.TrainConfig(epochs=epochs, batch_size=32, lr=3e-3, progress=False), retrain=retrain,
-            pretrained=ROOT / "data" / "checkpoints" / f"moglow_{name}.pt")
+    for label, variant in labels.items():
+        model, history = moglow.train_or_load(prepared, variant, config, epochs, retrain=retrain,
+                                              cache=ROOT / "data" / "cache" / f"moglow_{tag}_{variant}.pt")
         print(f"  {label:12} {len(history.train)} steps, {history.seconds:.0f} s of training")
         models[label] = model
     return models

@@ -45,14 +45,14 @@ def training_step_s(config: MoGlowConfig, batch: int = 100, repeats: int = 3) ->
     return min(times[1:])
 
 
-def sampling(config: MoGlowConfig, streams: int, frames: int) -> dict[str, float]:
+def sampling(config: MoGlowConfig, streams: int, frames: int, weights=torch.float32) -> dict[str, float]:
     torch.manual_seed(0)
     model = MoGlow(config)
     model.loss(windows(4, config.history + 2))         # ActNorm's initialisation
     model.eval()
     start = windows(streams, config.history)
     control = torch.zeros(streams, 3)
-    stream = model.stream(start, temperature=0.8, generator=torch.Generator().manual_seed(0))
+    stream = model.stream(start, temperature=0.8, generator=torch.Generator().manual_seed(0), weights=weights)
     for _ in range(5):                                 # warm-up
         stream.step(control)
     latencies = []
@@ -76,17 +76,20 @@ def main() -> None:
     torch.set_num_threads(args.threads)
     configs = {"laptop": MoGlowConfig(), "paper (§5.2)": MoGlowConfig.paper()}
     print(f"torch {torch.__version__}, {args.threads} threads\n")
-    print(f"{'config':14}{'weights (MB)':>13}{'train step (s)':>16}{'1 stream (fps)':>16}"
+    print(f"{'config':22}{'weights (MB)':>13}{'train step (s)':>16}{'1 stream (fps)':>16}"
           f"{'latency ms (med/p99)':>22}{'64 streams (fps)':>18}{'x real time':>13}")
     for name, config in configs.items():
         megabytes = 4 * sum(p.numel() for p in MoGlow(config).parameters()) / 1e6
         train = float("nan") if (args.skip_paper_training and name != "laptop") else training_step_s(config)
-        one = sampling(config, 1, args.frames)
-        many = sampling(config, 64, max(20, args.frames // 4))
-        print(f"{name:14}{megabytes:13.1f}{train:16.2f}{one['frames/s']:16.1f}"
-              f"{one['median ms']:11.2f} / {one['p99 ms']:<8.2f}{many['frames/s']:18.0f}"
-              f"{one['frames/s'] / config.fps:13.1f}")
-
+        for dtype in (torch.float32, torch.bfloat16):
+            one = sampling(config, 1, args.frames, dtype)
+            many = sampling(config, 64, max(20, args.frames // 4), dtype)
+            label = f"{name}, {str(dtype).replace('torch.', '')}"
+            print(f"{label:22}{megabytes:13.1f}{train:16.2f}{one['frames/s']:16.1f}"
+                  f"{one['median ms']:11.2f} / {one['p99 ms']:<8.2f}{many['frames/s']:18.0f}"
+                  f"{one['frames/s'] / config.fps:13.1f}")
+            train = float("nan")                      # one training time per config
+    print("\nweights (MB) as float32; bfloat16: the LSTM products of the stream in bfloat16 (MoGlowStream weights=)")
 
 if __name__ == "__main__":
     main()

@@ -34,20 +34,10 @@ SAMPLES = 3
 FEET = [LOCOMOTION.index("LeftFoot"), LOCOMOTION.index("RightFoot")]
 
 
-def errors_by_frame(pred: np.ndarray, true: np.ndarray, fps: float) -> tuple[np.ndarray, np.ndarray]:
-    """Pose and motion error (m) per frame of ``(windows, frames, 66)`` features, averaged
-    over windows and joints: two ``(frames,)`` arrays."""
-    joints = lambda f: f[..., rep.POSE].reshape(*f.shape[:2], -1, 3)          # noqa: E731
-    world = lambda f: np.stack([rep.to_positions(w, fps) for w in f])         # noqa: E731
-    pose = np.linalg.norm(joints(pred) - joints(true), axis=-1).mean(axis=(0, 2))
-    motion = np.linalg.norm(world(pred) - world(true), axis=-1).mean(axis=(0, 2))
-    return pose, motion
-
-
 def feet_report(features: np.ndarray, fps: float) -> np.ndarray:
     """Stepping (m/s: ankle speed in the root frame), median ankle height (cm), foot skating (cm/s)."""
     ankles = features[..., rep.POSE].reshape(*features.shape[:2], -1, 3)[:, :, FEET]
-    stepping = np.linalg.norm(np.diff(ankles[..., [0, 2]], axis=1), axis=-1).mean() * fps
+    stepping = metrics.stepping_speed(features, fps).mean()
     world = np.stack([rep.to_positions(w, fps) for w in features])
     return np.array([stepping, 100 * np.median(ankles[..., 1]), 100 * metrics.foot_skating(world, fps)])
 
@@ -99,10 +89,10 @@ def run(name: str, source, window: int, epochs: int, lstm_epochs: int) -> None:
     errors, feet = {}, {"ground truth": feet_report(truth[:, prime:], config.fps)}
     for label, (_, _, samples) in rows.items():
         denormalised = [prepared.normalizer.denormalize(s.numpy()) for s in samples]
-        per_sample = [errors_by_frame(s, truth, config.fps) for s in denormalised]
+        per_sample = [metrics.errors_by_frame(s, truth, config.fps) for s in denormalised]
         errors[label] = [np.mean([e[k] for e in per_sample], 0) for k in (0, 1)]
         feet[label] = np.mean([feet_report(s[:, prime:], config.fps) for s in denormalised], 0)
-    errors["mean pose, true control"] = list(errors_by_frame(mean_pose, truth, config.fps))
+    errors["mean pose, true control"] = list(metrics.errors_by_frame(mean_pose, truth, config.fps))
     rows["mean pose, true control"] = (0, "yes", None)
 
     for k, title in ((1, "Table 1: motion error (world)"), (0, "Table 2: pose error (root frame)")):

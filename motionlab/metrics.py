@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from .filters import gaussian_smooth
-from .representation import N_POSE, POSE
+from .representation import N_POSE, POSE, to_positions
 from .skeleton import FEET, LOCOMOTION, Skeleton
 
 
@@ -162,6 +162,30 @@ def pose_spread(features: np.ndarray) -> np.ndarray:
     to a static pose"); walking gives about 0.1 m."""
     joints = _pose_joints(features)
     return joints.std(axis=-3).mean(axis=(-1, -2))
+
+
+def leg_swing(features: np.ndarray) -> float:
+    """How far the legs swing, metres: the standard deviation over time of the left ankle's
+    lead over the right along the facing direction, averaged over clips. Features
+    ``(frames, 66)`` or ``(clips, frames, 66)``; a body that glides without stepping gives 0."""
+    joints = _pose_joints(features)
+    lead = joints[..., ANKLES[0], 2] - joints[..., ANKLES[1], 2]
+    return float(lead.std(axis=-1).mean())
+
+
+def errors_by_frame(pred_features: np.ndarray, true_features: np.ndarray,
+                    fps: float) -> tuple[np.ndarray, np.ndarray]:
+    """Pose error (root frame) and motion error (world) per frame, metres: two ``(frames,)``
+    arrays for feature windows ``(windows, frames, 66)``, averaged over windows and joints.
+    The motion error integrates each window's control from the same start, so it grows
+    with the horizon where the control is wrong."""
+    pred, true = np.asarray(pred_features, dtype=np.float64), np.asarray(true_features, dtype=np.float64)
+    if pred.ndim != 3 or pred.shape != true.shape:
+        raise ValueError(f"pred_features, true_features: expected two (windows, frames, 66) arrays of one shape, "
+                         f"got {pred.shape} and {true.shape}")
+    pose = np.linalg.norm(_pose_joints(pred) - _pose_joints(true), axis=-1).mean(axis=(0, 2))
+    motion = np.linalg.norm(to_positions(pred, fps) - to_positions(true, fps), axis=-1).mean(axis=(0, 2))
+    return pose, motion
 
 
 def describe_motion(features: np.ndarray) -> dict[str, np.ndarray]:

@@ -163,11 +163,18 @@ def to_positions(features: np.ndarray, fps: float, start: np.ndarray | None = No
 
     Integrates the control from ``start`` (``(x, z, heading)`` of the first root frame,
     default the origin facing ``+z``) and places each frame's pose in its root frame.
+    A batch of clips ``(..., frames, 3 * joints + 3)`` gives ``(..., frames, joints, 3)``,
+    each clip from the same ``start``.
     """
     features = np.asarray(features, dtype=np.float64)
     n_pose = 3 * skeleton.n_joints
+    if features.ndim > 2 and features.shape[-1] == n_pose + 3:
+        flat = features.reshape(-1, *features.shape[-2:])
+        positions = np.stack([to_positions(clip, fps, start, skeleton) for clip in flat])
+        return positions.reshape(*features.shape[:-1], skeleton.n_joints, 3)
     if features.ndim != 2 or features.shape[1] != n_pose + 3:
-        raise ValueError(f"features: expected shape (frames, {n_pose + 3}), got {features.shape}")
+        raise ValueError(f"features: expected shape (frames, {n_pose + 3}) or (..., frames, {n_pose + 3}), "
+                         f"got {features.shape}")
     root = integrate_control(features[:, n_pose:], fps, start)
     pose = features[:, :n_pose].reshape(len(features), skeleton.n_joints, 3)
     origin = np.stack([root[:, 0], np.zeros(len(root)), root[:, 1]], axis=-1)

@@ -111,3 +111,31 @@ def test_stepping_speed_smoothing_ignores_jitter_but_keeps_steps():
     assert 0.7 < kept <= 1.0
     with pytest.raises(ValueError, match="smooth_s"):
         metrics.stepping_speed(walk, 20.0, smooth_s=-1)
+
+
+def test_leg_swing_and_errors_by_frame():
+    import numpy as np
+    from motionlab import representation as rep
+    from motionlab import synthetic
+    walk = rep.to_features(synthetic.generate(np.tile([1.3, 0.0, 0.0], (80, 1)), 20.0).positions, 20.0)
+    stand = rep.to_features(synthetic.generate(np.zeros((80, 3)), 20.0).positions, 20.0)
+    assert 0.2 < metrics.leg_swing(walk) < 1.0 and metrics.leg_swing(stand) < 0.01
+    assert np.isclose(metrics.leg_swing(np.stack([walk, stand])), (metrics.leg_swing(walk) + metrics.leg_swing(stand)) / 2)
+    pred, true = np.stack([walk, walk]), np.stack([walk, walk])
+    pred[1, :, 63] += 0.1                                        # 0.1 m/s too fast: the world error grows
+    pose, motion = metrics.errors_by_frame(pred, true, 20.0)
+    assert pose.shape == motion.shape == (80,) and np.allclose(pose, 0)
+    assert np.isclose(motion[0], 0) and np.isclose(motion[-1], 0.5 * 0.1 * 79 / 20, rtol=1e-3)
+    with pytest.raises(ValueError, match="pred_features"):
+        metrics.errors_by_frame(pred, true[:1], 20.0)
+
+
+def test_to_positions_takes_batches():
+    import numpy as np
+    from motionlab import representation as rep
+    from motionlab import synthetic
+    clips = np.stack([rep.to_features(synthetic.random_motion(2.0, 20.0, seed=s).positions, 20.0) for s in range(3)])
+    batch = rep.to_positions(clips, 20.0)
+    assert batch.shape == (3, 40, 21, 3)
+    assert np.allclose(batch[2], rep.to_positions(clips[2], 20.0))
+    assert rep.to_positions(clips[None], 20.0).shape == (1, 3, 40, 21, 3)

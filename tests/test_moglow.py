@@ -246,3 +246,17 @@ def test_short_training_run_improves_the_likelihood():
     assert not model.training
     out = model.sample(prepared.test.windows[:2, 5:, -3:], prepared.test.windows[:2, :5], temperature=0.5)
     assert torch.isfinite(out).all()
+
+
+def test_stream_with_two_lstm_layers_and_bfloat16_weights():
+    model = trained_like(replace(SMALL, lstm_layers=2))
+    x = features(2, 12)
+    noise = torch.randn(2, 8, 61, generator=torch.Generator().manual_seed(4))
+    reference = model.sample(x[:, 4:, -3:], x[:, :4], temperature=0.5, noise=noise)
+    exact = model.stream(x[:, :4], temperature=0.5).run(x[:, 4:, -3:], noise)
+    assert torch.allclose(exact, reference, atol=1e-4)
+    half = model.stream(x[:, :4], temperature=0.5, weights=torch.bfloat16).run(x[:, 4:, -3:], noise)
+    error = (half - reference).abs().max().item()
+    assert 0 < error < 0.1, error
+    with pytest.raises(ValueError, match="weights"):
+        model.stream(x[:, :4], weights=torch.float16)

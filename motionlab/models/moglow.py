@@ -44,9 +44,11 @@ import math
 from contextlib import contextmanager
 from dataclasses import dataclass, replace
 from functools import partial
+from pathlib import Path
 
 import numpy as np
 import torch
+import torch.nn.functional as F
 from torch import nn
 
 from .flows import _LOG_SIGMOID_SHIFT, SCALE_SHIFT, FlowSequence, FlowStep, GaussianPrior, MLPCouplingNet
@@ -352,9 +354,10 @@ class MoGlow(nn.Module):
         return np.concatenate([history, frames], axis=1)
 
     def stream(self, history: torch.Tensor, temperature: float = 1.0, generator: torch.Generator | None = None,
-               normalizer=None) -> "MoGlowStream":
+               normalizer=None, weights: torch.dtype = torch.float32) -> "MoGlowStream":
         """A :class:`MoGlowStream` that continues ``history`` one control frame at a time."""
-        return MoGlowStream(self, history, temperature=temperature, generator=generator, normalizer=normalizer)
+        return MoGlowStream(self, history, temperature=temperature, generator=generator, normalizer=normalizer,
+                            weights=weights)
 
     def describe(self) -> list[str]:
         """What the model conditions on, and its size."""
@@ -374,9 +377,16 @@ class MoGlowStream:
     Holds the last ``τ`` poses and controls and every coupling's LSTM state. At creation
     it precomputes, once, what does not change from frame to frame: each step's ActNorm
     scale, the inverse of each 1x1 map ``W^-1`` (so a frame costs matrix products, not
-    triangular solves), and the LSTM weights; :meth:`step` then runs the flow backwards
-    (coupling inverse -> ``W^-1`` -> ActNorm inverse, step ``K`` to 1) in inference mode.
-    Several streams (characters) run at once as a batch.
+    triangular solves), and each LSTM layer's two weight matrices joined into one
+    ``[W_ih W_hh]`` (one matrix-vector product per layer and frame; ``nn.LSTM`` called
+    one frame at a time repacks its weights on every call). :meth:`step` then runs the
+    flow backwards (coupling inverse -> ``W^-1`` -> ActNorm inverse, step ``K`` to 1) in
+    inference mode. Several streams (characters) run at once as a batch.
+
+    Generating one frame reads every weight once, so one stream is limited by memory
+    bandwidth: ``weights=torch.bfloat16`` halves the bytes (the LSTM products run in
+    bfloat16, everything else in float32; frames then differ from the float32 ones by
+    about 1e-2 in normalised units).
 
     >>> stream = model.stream(history)            # (batch, τ, 66) normalised features
     >>> frame = stream.step(control)              # (batch, 3) -> (batch, 66)
@@ -389,10 +399,15 @@ class MoGlowStream:
         generator: a ``torch.Generator`` for the noise.
         normalizer: a :class:`motionlab.data.Normalizer`: take and return features in the
             data's units (metres, m/s, rad/s) instead of normalised ones.
+        weights: dtype of the LSTM weights during streaming (``torch.float32`` or
+            ``torch.bfloat16``).
     """
 
     def __init__(self, model: MoGlow, history, temperature: float = 1.0,
-                 generator: torch.Generator | None = None, normalizer=None):
+                 generator: torch.Generator | None = None, normalizer=None, weights: torch.dtype = torch.float32):
+        if weights not in (torch.float32, torch.bfloat16):
+            raise ValueError(f"weights: expected torch.float32 or torch.bfloat16, got {weights}")
+        self.weights = weights
         if not model.config.recurrent:
             raise ValueError("model: the stream needs recurrent (LSTM) couplings; use MoGlow.sample for a Markov model")
         self.model, self.normalizer, self.generator = model, normalizer, generator
@@ -412,16 +427,44 @@ class MoGlowStream:
         self.controls = history[..., model.control].clone()             # (batch, τ, n_control)
         self.frames = 0
         with torch.inference_mode():
-            self._steps = [self._precompute(step) for step in model.flow.blocks]
-        self._states = [None] * len(self._steps)
+            self._steps = [self._precompute(step, weights) for step in model.flow.blocks]
+            hidden = model.config.hidden
+            # (h, c) of every LSTM layer of every coupling: h_{τ+1} = 0 (footnote 2)
+            self._states = [[(history.new_zeros(self.batch, hidden), history.new_zeros(self.batch, hidden))
+                             for _ in step["layers"]] for step in self._steps]
 
     @staticmethod
-    def _precompute(step: FlowStep) -> dict:
+    def _precompute(step: FlowStep, dtype: torch.dtype) -> dict:
         actnorm, linear, coupling = step.actnorm, step.linear, step.coupling
         w_inverse = torch.linalg.inv(linear.weight().double()).float()
+        lstm, output = coupling.network.lstm, coupling.network.output
+        layers = []
+        for k in range(lstm.num_layers):
+            joined = torch.cat([getattr(lstm, f"weight_ih_l{k}"), getattr(lstm, f"weight_hh_l{k}")], dim=1)
+            layers.append((joined.to(dtype).contiguous(),
+                           (getattr(lstm, f"bias_ih_l{k}") + getattr(lstm, f"bias_hh_l{k}")).clone()))
         return {"scale": torch.exp(-actnorm.log_scale).clone(), "bias": actnorm.bias.clone(),
                 "w_inverse_t": w_inverse.T.contiguous(), "n_lo": coupling.n_lo, "n_hi": coupling.n_hi,
-                "lstm": coupling.network.lstm, "output": coupling.network.output}
+                "layers": layers, "output": (output.weight.clone(), output.bias.clone())}
+
+    def _coupling_network(self, k: int, inputs: torch.Tensor) -> torch.Tensor:
+        """Coupling ``k``'s network on one frame: the LSTM layers (gates in torch's order
+        i, f, g, o), carrying their state, then the output layer. ``(batch, in)`` ->
+        ``(batch, 2 * n_hi)``."""
+        states = self._states[k]
+        for layer, (weight, bias) in enumerate(self._steps[k]["layers"]):
+            h, c = states[layer]
+            joined = torch.cat([inputs, h], dim=1).to(weight.dtype)
+            if self.batch == 1 and weight.dtype == torch.bfloat16:   # the faster bfloat16 kernel on CPU
+                gates = torch.mv(weight, joined[0])[None].float() + bias
+            else:
+                gates = F.linear(joined, weight).float() + bias
+            i, f, g, o = gates.chunk(4, dim=1)
+            c = torch.sigmoid(f) * c + torch.sigmoid(i) * torch.tanh(g)
+            h = torch.sigmoid(o) * torch.tanh(c)
+            states[layer] = (h, c)
+            inputs = h
+        return F.linear(inputs, *self._steps[k]["output"])
 
     def _normalised_control(self, control) -> torch.Tensor:
         c = self.model.config.n_control
@@ -461,8 +504,7 @@ class MoGlowStream:
             for k in reversed(range(len(self._steps))):                          # f_K^-1 ... f_1^-1 undone
                 step = self._steps[k]
                 lo = x[:, :step["n_lo"]]
-                hidden, self._states[k] = step["lstm"](torch.cat([lo, cond], dim=1)[:, None], self._states[k])
-                h = step["output"](hidden[:, 0])
+                h = self._coupling_network(k, torch.cat([lo, cond], dim=1))
                 shift, raw_scale = h[:, :step["n_hi"]], h[:, step["n_hi"]:]
                 log_scale = nn.functional.logsigmoid(raw_scale + SCALE_SHIFT) - _LOG_SIGMOID_SHIFT
                 x = torch.cat([lo, x[:, step["n_lo"]:] * torch.exp(-log_scale) - shift], dim=1)   # eq. 6 inverted
@@ -529,3 +571,35 @@ def long_sample_spread(model: MoGlow, normalizer, start, control, temperature: f
                             seed=seed)[:, model.config.history:]
     return {"first": float(metrics.pose_spread(motion[:, :frames]).mean()),
             "last": float(metrics.pose_spread(motion[:, -frames:]).mean())}
+
+
+# ----------------------------------------------------------------------------------------
+# Trained models for the notebooks
+# ----------------------------------------------------------------------------------------
+
+CHECKPOINTS = Path(__file__).resolve().parents[2] / "data" / "checkpoints"
+"""The repository's ``data/checkpoints``: MoGlow models made by ``make checkpoints``."""
+
+VARIANTS = {"dropout": {}, "no_dropout": {"dropout": 0.0}, "markov": {"recurrent": False}}
+"""The three models notebook 06 compares, as changes to a base config."""
+
+
+def train_or_load(prepared, variant: str = "dropout", config: MoGlowConfig = MoGlowConfig(), epochs: int = 40,
+                  retrain: bool = False, cache: str | Path | None = None):
+    """A trained MoGlow ``variant`` (``"dropout"``, ``"no_dropout"`` or ``"markov"``) of
+    ``config`` for the data ``prepared`` (:func:`motionlab.data.prepare`), and its history.
+
+    Uses the shipped checkpoint ``data/checkpoints/moglow_<variant>.pt`` when it holds this
+    config trained on data made the same way; otherwise trains for ``epochs`` (Adam 3e-3,
+    batches of 32, as ``make checkpoints`` does) and caches the result in ``cache``
+    (default ``data/cache/moglow_<variant>.pt``). ``retrain=True`` always trains.
+    """
+    from .. import training
+    if variant not in VARIANTS:
+        raise ValueError(f"variant: expected one of {', '.join(VARIANTS)}, got {variant!r}")
+    torch.manual_seed(0)
+    model = MoGlow(replace(config, **VARIANTS[variant]))
+    cache = Path(cache) if cache is not None else CHECKPOINTS.parent / "cache" / f"moglow_{variant}.pt"
+    return training.train_or_load(cache, model, prepared,
+                                  training.TrainConfig(epochs=epochs, batch_size=32, lr=3e-3, progress=False),
+                                  retrain=retrain, pretrained=CHECKPOINTS / f"moglow_{variant}.pt")

@@ -1,0 +1,670 @@
+"""Dynamic Future Net, "DFN" (Chen et al. 2020): diversified motion from a short prefix.
+
+The current frame is a result of the past and a choice made for a planned future. DFN
+models three latent states per frame ``t`` (§5.3): a deterministic *past* state ``h_t``
+(a GRU over everything generated so far), a stochastic *future* state ``f_t`` (where the
+motion is heading over the next ``horizon`` frames) and a stochastic *current* state
+``z_t`` (this frame). Generation first imagines a future, then picks a current state that
+leads there, then updates the past::
+
+    frame y_t (66) --frame encoder (§5.1)--> x_t = [pose code | velocity code]
+    x_t..x_{t+H-1} --GRU seq2seq (§5.2)----> s_t, a summary of the next H frames
+    f_t ~ p(f_t | h_t)        = N(mu, sigma^2),  3-layer MLP, 256, LeakyReLU        eq. 5
+    s^_t = MLP(f_t)           unrolled future summary, 2-layer MLP, 128              eq. 6
+    z_t ~ p(z_t | h_t, s^_t)  = N(mu, sigma^2),  4-layer MLP, 128, LeakyReLU        eq. 7
+    x^_t = MLP(z_t)           current feature, 3 hidden layers of 128                §5.3
+    h_{t+1} = GRU(h_t, [z_t, f_t])               2 stacked layers of 128             eq. 8
+    x^_t --frame decoders (§5.1)--> pose (63) and velocity (3)
+
+Training infers ``f_t`` and ``z_t`` from the data (§5.4): ``q(f_t | h_t, s_t)`` from the
+true future summary and ``q(z_t | x_t, h_t, s_t)`` from the true frame, and adds a
+temporal-difference term (§5.5, after TD-VAE): a state ``z_t1`` inferred back from a later
+``z_t2`` must predict ``z_t2`` over the skip ``t2 - t1``. The loss (§5.6) is the frame
+reconstruction, the future-summary reconstruction, the two KL terms and the TD term.
+
+Training is staged as in the paper (§5.6): the frame autoencoder first (stage
+``"frame"``), then, with it frozen, the dynamics embedding (``"sequence"``), then, with
+both frozen, the dynamics model (``"dynamics"``). :func:`train_stages` runs the three
+with motionlab's one training loop.
+
+Where the paper leaves a choice open (its equations were lost from our copy, and several
+sizes are not given) this file makes one and says so in a comment marked *Choice*. All
+frame tensors are ``(batch, frames, 66)`` in the normalised units of
+:class:`motionlab.data.Normalizer`; latents are ``(batch, frames, size)``.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import torch
+import torch.nn.functional as F
+from torch import nn
+
+STAGES = ("frame", "sequence", "dynamics")
+"""The training stages, in order (§5.6)."""
+
+
+@dataclass(frozen=True)
+class DFNConfig:
+    """Sizes and options. Defaults: a laptop-sized model at 20 fps; :meth:`paper` is §5.
+
+    Attributes:
+        n_pose, n_control: features per frame: 63 root-local joint coordinates and 3
+            velocities (the paper: 72 + 4 for 24 joints, §4).
+        fps: frames per second of the data the model expects.
+        frame_hidden: width of the frame encoder's and pose decoder's two hidden layers.
+        pose_code, velocity_code: sizes of the two parts of the frame code ``x_t`` (§5.1).
+        horizon: ``H``, frames summarised by the future summary ``s_t`` (§5.2, §5.4).
+        summary: size of the future summary ``s_t``; also the dynamics embedding's GRU size.
+        past: size of each of the 2 layers of the past-state GRU ``h_t`` (eq. 8; paper 128).
+        future: size of the future state ``f_t``.
+        current: size of the current state ``z_t``.
+        future_prior_hidden: hidden width of ``p(f | h)`` (eq. 5; paper 256).
+        current_prior_hidden: hidden width of ``p(z | h, s^)`` (eq. 7) and of the current
+            feature MLP ``x^ = MLP(z)`` (paper 128 both).
+        summary_decoder_hidden: hidden width of ``s^ = MLP(f)`` (eq. 6; paper 128).
+        current_posterior_hidden: hidden width of ``q(z | x, h, s)`` (eq. 10; paper 32).
+        future_posterior_hidden: hidden width of ``q(f | h, s)`` (eq. 11; paper 512).
+        td_hidden: hidden width of the TD posterior (eq. 13) and skip predictor (eq. 14),
+            paper 32.
+        td_max_skip: the largest ``t2 - t1`` of the temporal-difference term, frames.
+        td_weight: weight of the temporal-difference term (0: off).
+        observation_std: standard deviation of the Gaussian likelihood of the current
+            feature ``x_t`` and of the future summary ``s_t``, in standardised units.
+        velocity_weight: weight of the joint-velocity term of the dynamics embedding's loss
+            (eq. 3).
+    """
+
+    n_pose: int = 63
+    n_control: int = 3
+    fps: float = 20.0
+    frame_hidden: int = 256
+    pose_code: int = 16
+    velocity_code: int = 4
+    horizon: int = 10
+    summary: int = 32
+    past: int = 64
+    future: int = 16
+    current: int = 16
+    future_prior_hidden: int = 128
+    current_prior_hidden: int = 64
+    summary_decoder_hidden: int = 64
+    current_posterior_hidden: int = 32
+    future_posterior_hidden: int = 128
+    td_hidden: int = 32
+    td_max_skip: int = 4
+    td_weight: float = 1.0
+    observation_std: float = 0.1
+    velocity_weight: float = 1.0
+
+    def __post_init__(self):
+        for name in ("n_pose", "n_control", "frame_hidden", "pose_code", "velocity_code", "horizon",
+                     "summary", "past", "future", "current", "future_prior_hidden",
+                     "current_prior_hidden", "summary_decoder_hidden", "current_posterior_hidden",
+                     "future_posterior_hidden", "td_hidden", "td_max_skip"):
+            if getattr(self, name) < 1:
+                raise ValueError(f"{name}: must be >= 1, got {getattr(self, name)}")
+        if self.fps <= 0:
+            raise ValueError(f"fps: must be > 0, got {self.fps}")
+        if self.observation_std <= 0:
+            raise ValueError(f"observation_std: must be > 0, got {self.observation_std}")
+        if self.td_weight < 0 or self.velocity_weight < 0:
+            raise ValueError(f"td_weight and velocity_weight: must be >= 0, got {self.td_weight} "
+                             f"and {self.velocity_weight}")
+
+    @property
+    def n_features(self) -> int:
+        return self.n_pose + self.n_control
+
+    @property
+    def code(self) -> int:
+        """Size of the frame code ``x_t``: pose code plus velocity code."""
+        return self.pose_code + self.velocity_code
+
+    @classmethod
+    def paper(cls, **changes) -> "DFNConfig":
+        """The sizes of §5: past GRU 2 x 128, future prior 256, current prior, current
+        feature and summary decoder 128, current posterior 32, future posterior 512, TD
+        networks 32; a 16-dimensional pose embedding (§6.3, Fig. 6). The paper gives no
+        frame-autoencoder width, velocity-code size, state sizes, summary size, horizon or
+        frame rate: *Choice*: 512, 8, 32 for ``f`` and ``z``, 64, and 20 frames (1 s at
+        our 20 fps)."""
+        return replace(cls(frame_hidden=512, pose_code=16, velocity_code=8, horizon=20, summary=64,
+                           past=128, future=32, current=32, future_prior_hidden=256,
+                           current_prior_hidden=128, summary_decoder_hidden=128,
+                           current_posterior_hidden=32, future_posterior_hidden=512, td_hidden=32),
+                       **changes)
+
+
+# ----------------------------------------------------------------------------------------
+# Building blocks
+# ----------------------------------------------------------------------------------------
+
+def mlp(sizes: list[int]) -> nn.Sequential:
+    """Linear layers between ``sizes`` with LeakyReLU between them (none after the last).
+
+    *Choice*: the paper's "n-layer MLP" is read as n linear layers ("three-layer MLP with
+    hidden dimension 256" = ``[in, 256, 256, out]``); "n hidden layers" as n + 1 linear
+    layers.
+    """
+    layers: list[nn.Module] = []
+    for k, (a, b) in enumerate(zip(sizes[:-1], sizes[1:])):
+        layers.append(nn.Linear(a, b))
+        if k < len(sizes) - 2:
+            layers.append(nn.LeakyReLU(0.2))
+    return nn.Sequential(*layers)
+
+
+class GaussianHead(nn.Module):
+    """An MLP that outputs a diagonal Gaussian: ``(..., in) -> mu, logvar`` each ``(..., out)``."""
+
+    def __init__(self, sizes: list[int]):
+        super().__init__()
+        self.net = mlp(sizes[:-1] + [2 * sizes[-1]])
+
+    def forward(self, *inputs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        mu, logvar = self.net(torch.cat(inputs, dim=-1)).chunk(2, dim=-1)
+        # Choice: log sigma^2 within [-8, 4] so exp() can neither vanish nor blow up.
+        return mu, logvar.clamp(-8.0, 4.0)
+
+
+def gaussian_kl(mu_q: torch.Tensor, logvar_q: torch.Tensor,
+                mu_p: torch.Tensor | None = None, logvar_p: torch.Tensor | None = None) -> torch.Tensor:
+    """``KL(N(mu_q, exp(logvar_q)) || N(mu_p, exp(logvar_p)))`` of diagonal Gaussians, summed
+    over the last dimension: ``(..., d)`` -> ``(...)`` nats. ``mu_p = logvar_p = None``: the
+    unit Gaussian. The KL terms of §5.6 (eq. 15) and §5.5."""
+    if mu_p is None:
+        mu_p = torch.zeros_like(mu_q)
+    if logvar_p is None:
+        logvar_p = torch.zeros_like(logvar_q)
+    return 0.5 * (logvar_p - logvar_q + (logvar_q.exp() + (mu_q - mu_p).pow(2)) / logvar_p.exp() - 1.0).sum(-1)
+
+
+def sample(mu: torch.Tensor, logvar: torch.Tensor, temperature: float = 1.0,
+           generator: torch.Generator | None = None) -> torch.Tensor:
+    """``mu + temperature * sigma * eps``, eps ~ N(0, I) (the reparametrisation trick).
+    The noise is drawn on the ``generator``'s device, so a CPU generator also seeds a model
+    on a GPU."""
+    device = generator.device if generator is not None else mu.device
+    noise = torch.randn(mu.shape, generator=generator, device=device, dtype=mu.dtype).to(mu.device)
+    return mu + temperature * (0.5 * logvar).exp() * noise
+
+
+def gaussian_nll(prediction: torch.Tensor, target: torch.Tensor, std: float) -> torch.Tensor:
+    """``-log N(target | prediction, std^2 I)`` summed over the last dimension, nats."""
+    squared = ((prediction - target) / std).pow(2)
+    return (0.5 * squared + math.log(std) + 0.5 * math.log(2 * math.pi)).sum(-1)
+
+
+# ----------------------------------------------------------------------------------------
+# §5.1 Spatial embedding: the frame autoencoder
+# ----------------------------------------------------------------------------------------
+
+class FrameAutoencoder(nn.Module):
+    """§5.1, Fig. 3: an MLP encoder whose code splits into a pose code and a velocity code,
+    a pose decoder and a velocity decoder. ``(..., 66) <-> (..., pose_code + velocity_code)``.
+
+    *Choice*: the paper's pose decoder outputs joint rotations and a forward-kinematics
+    layer keeps bone lengths exact; ours outputs the 63 root-local joint positions directly
+    (the representation every motionlab model shares), so bone lengths can drift a little:
+    ``metrics.bone_length_drift`` measures it (notebook 07, ``benchmarks/dfn.py``).
+    *Choice*: the encoder sees the whole frame (pose and velocity); the pose decoder sees
+    only the pose code and the velocity decoder only the velocity code.
+    """
+
+    def __init__(self, config: DFNConfig):
+        super().__init__()
+        c = config
+        self.config = c
+        self.encoder = mlp([c.n_features, c.frame_hidden, c.frame_hidden, c.code])
+        self.pose_decoder = mlp([c.pose_code, c.frame_hidden, c.frame_hidden, c.n_pose])
+        self.velocity_decoder = mlp([c.velocity_code, 64, c.n_control])
+        # Features the training data never varies (the hips' root-local x and z are 0 by
+        # definition) are decoded as that constant: a normalised error there costs almost
+        # nothing in eq. 2 but would move the hips away from the root by centimetres.
+        self.register_buffer("constant", torch.zeros(c.n_features, dtype=torch.bool))
+        self.register_buffer("constant_value", torch.zeros(c.n_features))
+
+    def fit_constants(self, frames: torch.Tensor, tolerance: float = 1e-6) -> None:
+        """Find the features that are constant over training ``frames`` ``(..., 66)``."""
+        flat = frames.reshape(-1, frames.shape[-1])
+        self.constant.copy_(flat.std(0) < tolerance if len(flat) > 1 else torch.zeros_like(self.constant))
+        self.constant_value.copy_(flat.mean(0))
+
+    def encode(self, frames: torch.Tensor) -> torch.Tensor:
+        return self.encoder(frames)
+
+    def decode(self, code: torch.Tensor) -> torch.Tensor:
+        pose_code, velocity_code = code.split([self.config.pose_code, self.config.velocity_code], -1)
+        frames = torch.cat([self.pose_decoder(pose_code), self.velocity_decoder(velocity_code)], -1)
+        return torch.where(self.constant, self.constant_value, frames)
+
+
+# ----------------------------------------------------------------------------------------
+# §5.2 Dynamics embedding: the sequence autoencoder
+# ----------------------------------------------------------------------------------------
+
+class SequenceAutoencoder(nn.Module):
+    """§5.2, Fig. 4: a GRU encodes ``H`` frame codes ``(n, H, code)`` into a future summary
+    ``s`` ``(n, summary)``; a second GRU unrolls ``s`` back into ``H`` frame codes.
+
+    *Choice*: the decoder GRU starts from ``s`` and is fed ``s`` at every step (the paper
+    does not say what it is fed); a linear layer maps its states to frame codes.
+    """
+
+    def __init__(self, config: DFNConfig):
+        super().__init__()
+        c = config
+        self.horizon = c.horizon
+        self.encoder = nn.GRU(c.code, c.summary, batch_first=True)
+        self.to_summary = nn.Linear(c.summary, c.summary)
+        self.decoder = nn.GRU(c.summary, c.summary, batch_first=True)
+        self.to_code = nn.Linear(c.summary, c.code)
+
+    def encode(self, codes: torch.Tensor) -> torch.Tensor:
+        _, last = self.encoder(codes)
+        return self.to_summary(last[-1])
+
+    def decode(self, summary: torch.Tensor) -> torch.Tensor:
+        states, _ = self.decoder(summary[:, None].expand(-1, self.horizon, -1).contiguous(),
+                                 summary[None].contiguous())
+        return self.to_code(states)
+
+
+# ----------------------------------------------------------------------------------------
+# §5.3-5.5 Dynamics model
+# ----------------------------------------------------------------------------------------
+
+class DynamicsModel(nn.Module):
+    """The generative networks of §5.3, the inference networks of §5.4 and the TD networks
+    of §5.5, over standardised frame codes ``x`` and future summaries ``s``."""
+
+    def __init__(self, config: DFNConfig):
+        super().__init__()
+        c = config
+        # §5.3 generative model
+        self.past = nn.ModuleList([nn.GRUCell(c.current + c.future, c.past),          # eq. 8: 2 layers
+                                   nn.GRUCell(c.past, c.past)])
+        self.future_prior = GaussianHead([c.past] + [c.future_prior_hidden] * 2 + [c.future])            # eq. 5
+        self.summary_decoder = mlp([c.future, c.summary_decoder_hidden, c.summary])                      # eq. 6
+        self.current_prior = GaussianHead([c.past + c.summary] + [c.current_prior_hidden] * 3
+                                          + [c.current])                                                # eq. 7
+        self.current_feature = mlp([c.current] + [c.current_prior_hidden] * 3 + [c.code])   # x = MLP(z)
+        # §5.4 inference
+        self.current_posterior = GaussianHead([c.code + c.past + c.summary] + [c.current_posterior_hidden] * 2
+                                              + [c.current])                                            # eq. 10
+        self.future_posterior = GaussianHead([c.past + c.summary] + [c.future_posterior_hidden] * 2
+                                             + [c.future])                                              # eq. 11
+        # §5.5 temporal difference
+        self.td_posterior = GaussianHead([c.current + 2 * c.past + 1] + [c.td_hidden] * 2 + [c.current])  # eq. 13
+        self.skip = mlp([c.current + 1] + [c.td_hidden] * 3 + [c.current])                              # eq. 14
+
+    def initial_state(self, batch: int, size: int, device) -> list[torch.Tensor]:
+        """``h_0``: zeros for both GRU layers."""
+        return [torch.zeros(batch, size, device=device) for _ in self.past]
+
+    def step_past(self, state: list[torch.Tensor], z: torch.Tensor, f: torch.Tensor) -> list[torch.Tensor]:
+        """Eq. 8: ``h_{t+1} = GRU(h_t, [z_t, f_t])``, two stacked layers.
+
+        *Choice*: the GRU reads the current and the future state ("given the current and
+        future state, the past state is updated"), not the frame itself: generation never
+        feeds decoded frames back, so it cannot drift out of the frame autoencoder's range.
+        """
+        first = self.past[0](torch.cat([z, f], -1), state[0])
+        return [first, self.past[1](first, state[1])]
+
+
+# ----------------------------------------------------------------------------------------
+# The model
+# ----------------------------------------------------------------------------------------
+
+class DFN(nn.Module):
+    """Chen et al.'s Dynamic Future Net: staged training, stochastic generation from a prefix.
+
+    Training: ``set_stage(name)`` then ``loss(batch)`` on windows ``(batch, frames, 66)``
+    (see :func:`train_stages`). Generation: :meth:`generate` from a prefix
+    ``(batch, k, 66)`` to any number of frames.
+    """
+
+    def __init__(self, config: DFNConfig = DFNConfig()):
+        super().__init__()
+        self.config = config
+        self.frame = FrameAutoencoder(config)                   # §5.1
+        self.sequence = SequenceAutoencoder(config)             # §5.2
+        self.dynamics = DynamicsModel(config)                   # §5.3-5.5
+        # Choice: the dynamics model works on standardised frame codes and summaries, so
+        # that its Gaussian likelihoods and KL terms do not depend on the arbitrary scale
+        # the autoencoders happened to learn. Fitted when a stage is frozen (set_stage).
+        self.register_buffer("code_mean", torch.zeros(config.code))
+        self.register_buffer("code_std", torch.ones(config.code))
+        self.register_buffer("summary_mean", torch.zeros(config.summary))
+        self.register_buffer("summary_std", torch.ones(config.summary))
+        self.stage = "frame"
+
+    # -- checks --------------------------------------------------------------------------
+
+    def _check(self, x: torch.Tensor, name: str, min_frames: int = 1) -> None:
+        n = self.config.n_features
+        if not isinstance(x, torch.Tensor) or x.ndim != 3 or x.shape[-1] != n or x.shape[1] < min_frames:
+            shape = tuple(x.shape) if isinstance(x, torch.Tensor) else type(x).__name__
+            raise ValueError(f"{name}: expected (batch, frames >= {min_frames}, {n}), got {shape}")
+        if not torch.isfinite(x).all():
+            raise ValueError(f"{name}: contains NaN or infinite values")
+
+    # -- stages --------------------------------------------------------------------------
+
+    def set_stage(self, stage: str, windows: torch.Tensor | None = None) -> None:
+        """Train ``stage`` next (§5.6): its parameters train, every other one is frozen.
+
+        ``"sequence"`` and ``"dynamics"`` need training ``windows`` ``(n, frames, 66)``: the
+        frozen encoders' outputs on them set the standardisation of frame codes (and, for
+        ``"dynamics"``, of future summaries). For ``"frame"`` they are optional: given, the
+        features they never vary are found (:meth:`FrameAutoencoder.fit_constants`).
+        """
+        if stage not in STAGES:
+            raise ValueError(f"stage: expected one of {', '.join(STAGES)}, got {stage!r}")
+        trained = {"frame": self.frame, "sequence": self.sequence, "dynamics": self.dynamics}[stage]
+        for p in self.parameters():
+            p.requires_grad_(False)
+        for p in trained.parameters():
+            p.requires_grad_(True)
+        if stage == "frame" and windows is not None:
+            self._check(windows, "windows")
+            self.frame.fit_constants(windows.to(self.code_mean.device))
+        if stage != "frame":
+            if windows is None:
+                raise ValueError(f"windows: stage {stage!r} needs the training windows to standardise codes")
+            self._check(windows, "windows", min_frames=self.config.horizon)
+            with torch.no_grad():
+                codes = self.frame.encode(windows.to(self.code_mean.device)).reshape(-1, self.config.code)
+                self.code_mean.copy_(codes.mean(0))
+                self.code_std.copy_(codes.std(0).clamp_min(1e-4))
+                if stage == "dynamics":
+                    self.summary_mean.zero_(), self.summary_std.fill_(1.0)     # raw summaries first
+                    summaries = self.summaries(self.codes(windows.to(self.code_mean.device))).reshape(
+                        -1, self.config.summary)
+                    self.summary_mean.copy_(summaries.mean(0))
+                    self.summary_std.copy_(summaries.std(0).clamp_min(1e-4))
+        self.stage = stage
+
+    # -- the embeddings ------------------------------------------------------------------
+
+    def codes(self, frames: torch.Tensor) -> torch.Tensor:
+        """§5.1 encoder, standardised: ``(batch, frames, 66)`` -> ``x`` ``(batch, frames, code)``."""
+        return (self.frame.encode(frames) - self.code_mean) / self.code_std
+
+    def frames_from_codes(self, codes: torch.Tensor) -> torch.Tensor:
+        """§5.1 decoders: standardised ``x`` ``(..., code)`` -> frames ``(..., 66)``."""
+        return self.frame.decode(codes * self.code_std + self.code_mean)
+
+    def summaries(self, codes: torch.Tensor) -> torch.Tensor:
+        """§5.2 encoder over every window of ``horizon`` codes: ``x`` ``(batch, frames, code)``
+        -> ``s`` ``(batch, frames - horizon + 1, summary)``, standardised; ``s_t`` summarises
+        ``x_t .. x_{t+H-1}``.
+
+        *Choice*: the summary of frame ``t`` includes frame ``t`` itself (the paper's index
+        range was lost); the future posterior ``q(f_t | h_t, s_t)`` thus sees the frame
+        being generated and the ``H - 1`` after it.
+        """
+        batch, frames, size = codes.shape
+        H = self.config.horizon
+        windows = codes.unfold(1, H, 1).permute(0, 1, 3, 2)          # (batch, steps, H, code)
+        steps = windows.shape[1]
+        s = self.sequence.encode(windows.reshape(batch * steps, H, size)).reshape(batch, steps, -1)
+        return (s - self.summary_mean) / self.summary_std
+
+    # -- the losses, one per stage -------------------------------------------------------
+
+    def frame_loss(self, batch: torch.Tensor) -> dict[str, torch.Tensor]:
+        """Eq. 2: mean squared error of every frame's reconstruction through the frame
+        autoencoder (normalised units); ``pose_mse`` and ``velocity_mse`` logged apart."""
+        recon = self.frame.decode(self.frame.encode(batch))
+        n = self.config.n_pose
+        loss = F.mse_loss(recon, batch)
+        return {"loss": loss, "pose_mse": F.mse_loss(recon[..., :n], batch[..., :n]).detach(),
+                "velocity_mse": F.mse_loss(recon[..., n:], batch[..., n:]).detach()}
+
+    def sequence_loss(self, batch: torch.Tensor) -> dict[str, torch.Tensor]:
+        """Eq. 3 on ``horizon``-frame pieces of the windows: the frames decoded (through
+        the frozen frame decoder) from the unrolled summary against the true frames, plus
+        ``velocity_weight`` times the same for their frame-to-frame differences (joint
+        velocities). Normalised units."""
+        H = self.config.horizon
+        # Choice: pieces start every H // 2 frames from a random offset, not at every frame:
+        # neighbouring pieces overlap almost entirely, and this is several times faster.
+        stride = max(1, H // 2)
+        offset = int(torch.randint(0, stride, ())) if batch.shape[1] - H >= stride else 0
+        batch = batch[:, offset:]
+        with torch.no_grad():
+            codes = self.codes(batch)
+        pieces = codes.unfold(1, H, stride).permute(0, 1, 3, 2).reshape(-1, H, self.config.code)
+        targets = batch.unfold(1, H, stride).permute(0, 1, 3, 2).reshape(-1, H, self.config.n_features)
+        recon = self.frames_from_codes(self.sequence.decode(self.sequence.encode(pieces)))
+        frame_mse = F.mse_loss(recon, targets)
+        velocity_mse = F.mse_loss(recon.diff(dim=1), targets.diff(dim=1))
+        return {"loss": frame_mse + self.config.velocity_weight * velocity_mse,
+                "frame_mse": frame_mse.detach(), "velocity_mse": velocity_mse.detach()}
+
+    def infer(self, batch: torch.Tensor, generator: torch.Generator | None = None) -> dict[str, torch.Tensor]:
+        """The inference pass of §5.4 over windows ``(batch, frames, 66)``.
+
+        For each of the ``steps = frames - horizon + 1`` frames with a full future summary:
+        posterior and prior parameters of ``f`` and ``z``, their samples, the unrolled
+        summary ``s^``, the current feature ``x^`` and the past states ``h``; all
+        ``(batch, steps, size)``, plus the targets ``x`` and ``s``.
+        """
+        self._check(batch, "batch", min_frames=self.config.horizon)
+        d, c = self.dynamics, self.config
+        with torch.no_grad():                                     # frozen embeddings (§5.6)
+            codes = self.codes(batch)
+            s = self.summaries(codes)
+        steps = s.shape[1]
+        x = codes[:, :steps]
+        state = d.initial_state(batch.shape[0], c.past, batch.device)
+        names = ("h", "qf_mu", "qf_logvar", "pf_mu", "pf_logvar", "f", "s_hat",
+                 "qz_mu", "qz_logvar", "pz_mu", "pz_logvar", "z", "x_hat")
+        out: dict[str, list[torch.Tensor]] = {k: [] for k in names}
+        for t in range(steps):
+            h = state[-1]
+            qf = d.future_posterior(h, s[:, t])                              # eq. 11
+            pf = d.future_prior(h)                                           # eq. 5
+            f = sample(*qf, generator=generator)
+            s_hat = d.summary_decoder(f)                                     # eq. 6
+            qz = d.current_posterior(x[:, t], h, s[:, t])                    # eq. 10
+            # Choice: the current prior is conditioned on the summary unrolled from the
+            # posterior's f (as at generation, where it comes from the prior's f), not on
+            # the true s, so that p(z | h, s^) is trained on the input it will get.
+            pz = d.current_prior(h, s_hat)                                   # eq. 7
+            z = sample(*qz, generator=generator)
+            for key, value in zip(names, (h, *qf, *pf, f, s_hat, *qz, *pz, z, d.current_feature(z))):
+                out[key].append(value)
+            state = d.step_past(state, z, f)                                 # eq. 8
+        result = {k: torch.stack(v, 1) for k, v in out.items()}
+        result.update(x=x, s=s)
+        return result
+
+    def td_terms(self, out: dict[str, torch.Tensor], skip: int,
+                 generator: torch.Generator | None = None) -> dict[str, torch.Tensor]:
+        """§5.5 for every pair ``(t1, t2 = t1 + skip)``: the TD posterior
+        ``q(z_t1 | z_t2, h_t1, h_t2, skip)`` (eq. 13), its KL to the belief at ``t1``,
+        ``q(z_t1 | x_t1, h_t1, s_t1)``, and the skip prediction of ``z_t2`` from a sample of
+        it (eq. 14), as ``-log N(z_t2 | skip MLP, I)``. Each ``(batch, steps - skip)``.
+
+        *Choice* (the equations were lost): TD-VAE's form (Gregor et al. 2019) with the
+        belief at ``t1`` played by the current-state posterior; the skip enters both
+        networks as ``skip / td_max_skip``.
+        """
+        d = self.dynamics
+        steps = out["z"].shape[1]
+        if not 1 <= skip < steps:
+            raise ValueError(f"skip: expected 1 <= skip < {steps} steps, got {skip}")
+        z2 = out["z"][:, skip:]
+        h1, h2 = out["h"][:, :-skip], out["h"][:, skip:]
+        dt = torch.full_like(z2[..., :1], skip / self.config.td_max_skip)
+        mu, logvar = d.td_posterior(z2, h1, h2, dt)                              # eq. 13
+        kl = gaussian_kl(mu, logvar, out["qz_mu"][:, :-skip], out["qz_logvar"][:, :-skip])
+        prediction = d.skip(torch.cat([sample(mu, logvar, generator=generator), dt], -1))   # eq. 14
+        return {"td_mu": mu, "td_logvar": logvar, "td_kl": kl,
+                "td_nll": gaussian_nll(prediction, z2, 1.0)}
+
+    def dynamics_loss(self, batch: torch.Tensor) -> dict[str, torch.Tensor]:
+        """Eq. 15 per step, averaged over steps and windows (nats):
+
+        ``-log N(x_t | x^_t, std^2) - log N(s_t | s^_t, std^2)``
+        ``+ KL(q(z_t | x_t, h_t, s_t) || p(z_t | h_t, s^_t)) + KL(q(f_t | h_t, s_t) || p(f_t | h_t))``
+        ``+ td_weight * (KL(q_TD(z_t1 | ...) || q(z_t1 | ...)) - log p(z_t2 | z_t1, skip))``
+
+        The skip is drawn uniformly from ``1 .. td_max_skip`` per batch. Logged apart:
+        ``x_nll``, ``s_nll``, ``kl_z``, ``kl_f``, ``td`` (nats per step), ``x_mse`` (standardised
+        units).
+        """
+        out = self.infer(batch)
+        std = self.config.observation_std
+        x_nll = gaussian_nll(out["x_hat"], out["x"], std).mean()
+        s_nll = gaussian_nll(out["s_hat"], out["s"], std).mean()
+        kl_z = gaussian_kl(out["qz_mu"], out["qz_logvar"], out["pz_mu"], out["pz_logvar"]).mean()
+        kl_f = gaussian_kl(out["qf_mu"], out["qf_logvar"], out["pf_mu"], out["pf_logvar"]).mean()
+        total = x_nll + s_nll + kl_z + kl_f
+        terms = {"x_nll": x_nll.detach(), "s_nll": s_nll.detach(), "kl_z": kl_z.detach(),
+                 "kl_f": kl_f.detach(), "x_mse": F.mse_loss(out["x_hat"], out["x"]).detach()}
+        steps = out["z"].shape[1]
+        if self.config.td_weight > 0 and steps > 1:
+            skip = int(torch.randint(1, min(self.config.td_max_skip, steps - 1) + 1, ()))
+            td = self.td_terms(out, skip)
+            td_loss = (td["td_kl"] + td["td_nll"]).mean()
+            total = total + self.config.td_weight * td_loss
+            terms["td"] = td_loss.detach()
+        return {"loss": total, **terms}
+
+    def loss(self, batch: torch.Tensor) -> dict[str, torch.Tensor]:
+        """The loss of the current stage (:meth:`set_stage`) on windows ``(batch, frames, 66)``."""
+        self._check(batch, "batch", min_frames=self.config.horizon if self.stage != "frame" else 1)
+        return {"frame": self.frame_loss, "sequence": self.sequence_loss,
+                "dynamics": self.dynamics_loss}[self.stage](batch)
+
+    # -- reconstruction and generation ---------------------------------------------------
+
+    @torch.no_grad()
+    def reconstruct(self, frames: torch.Tensor, through: str = "frame") -> torch.Tensor:
+        """Deterministic reconstruction of ``(batch, frames, 66)``.
+
+        ``through="frame"``: each frame through the frame autoencoder (§5.1).
+        ``through="sequence"``: each ``horizon``-frame piece (starting at frames 0, H, 2H,
+        ...; the tail that does not fill one is left out) through the frame encoder, the
+        sequence autoencoder and the frame decoder (§5.2).
+        """
+        self._check(frames, "frames")
+        given_on, frames = frames.device, frames.to(self.code_mean.device)
+        if through == "frame":
+            return self.frame.decode(self.frame.encode(frames)).to(given_on)
+        if through != "sequence":
+            raise ValueError(f"through: expected 'frame' or 'sequence', got {through!r}")
+        H = self.config.horizon
+        n = frames.shape[1] // H
+        if n == 0:
+            raise ValueError(f"frames: need at least horizon = {H} frames, got {frames.shape[1]}")
+        pieces = self.codes(frames[:, :n * H]).reshape(-1, H, self.config.code)
+        return self.frames_from_codes(self.sequence.decode(self.sequence.encode(pieces))).reshape(
+            frames.shape[0], n * H, -1).to(given_on)
+
+    @torch.no_grad()
+    def generate(self, prefix: torch.Tensor, frames: int, temperature: float = 1.0,
+                 generator: torch.Generator | None = None, latents: bool = False):
+        """Open-loop generation from a motion prefix (§6.1): stochastic, any length.
+
+        Args:
+            prefix: ``(batch, k, 66)`` normalised frames (the paper: 8 to 20). Repeat one
+                prefix along ``batch`` for several samples of one start.
+            frames: total frames to return, ``>= k``: the prefix (as given) then
+                ``frames - k`` generated ones.
+            temperature: scales the standard deviation of both priors (1 = the model;
+                0 = the mean path, deterministic).
+            generator: a ``torch.Generator`` for reproducible samples.
+            latents: also return the states of the generated frames.
+
+        Returns ``(batch, frames, 66)`` normalised features; with ``latents=True`` a dict
+        with ``"frames"`` and ``"z"``, ``"f"``, ``"x"`` ``(batch, frames - k, size)`` (the
+        current and future states and the standardised current feature of each generated
+        frame).
+
+        The prefix drives the past state: *Choice* (the paper does not say how it primes
+        the model): for each prefix frame ``f_t`` is the mean of the prior ``p(f_t | h_t)``
+        and ``z_t`` the mean of the posterior ``q(z_t | x_t, h_t, s^_t)``, with the summary
+        unrolled from that ``f_t`` (the true future is not known at generation). Then, for
+        every new frame (§3, Fig. 5a): ``f_t ~ p(f | h_t)``, ``s^_t = MLP(f_t)``,
+        ``z_t ~ p(z | h_t, s^_t)``, ``x^_t = MLP(z_t)``, ``h_{t+1} = GRU(h_t, [z_t, f_t])``.
+        """
+        self._check(prefix, "prefix")
+        k = prefix.shape[1]
+        if not isinstance(frames, int) or frames < k:
+            raise ValueError(f"frames: expected an int >= the prefix's {k} frames, got {frames!r}")
+        if not (isinstance(temperature, (int, float)) and math.isfinite(temperature) and temperature >= 0):
+            raise ValueError(f"temperature: expected a finite number >= 0, got {temperature!r}")
+        was_training = self.training
+        self.eval()
+        d, c = self.dynamics, self.config
+        given_on = prefix.device
+        prefix = prefix.to(self.code_mean.device)                    # the model's device
+        state = d.initial_state(prefix.shape[0], c.past, prefix.device)
+        for x in self.codes(prefix).unbind(1):                        # prime the past state
+            h = state[-1]
+            f = d.future_prior(h)[0]
+            z = d.current_posterior(x, h, d.summary_decoder(f))[0]
+            state = d.step_past(state, z, f)
+        zs, fs, xs = [], [], []
+        for _ in range(frames - k):
+            h = state[-1]
+            f = sample(*d.future_prior(h), temperature, generator)             # eq. 5
+            s_hat = d.summary_decoder(f)                                         # eq. 6
+            z = sample(*d.current_prior(h, s_hat), temperature, generator)      # eq. 7
+            zs.append(z), fs.append(f), xs.append(d.current_feature(z))         # x = MLP(z)
+            state = d.step_past(state, z, f)                                     # eq. 8
+        empty = prefix.new_zeros(prefix.shape[0], 0, 1)
+        stack = lambda v, n: torch.stack(v, 1) if v else empty.expand(-1, -1, n)  # noqa: E731
+        x = stack(xs, c.code)
+        motion = torch.cat([prefix, self.frames_from_codes(x)], 1)
+        self.train(was_training)
+        if latents:
+            return {"frames": motion.to(given_on), "z": stack(zs, c.current).to(given_on),
+                    "f": stack(fs, c.future).to(given_on), "x": x.to(given_on)}
+        return motion.to(given_on)
+
+
+# ----------------------------------------------------------------------------------------
+# Staged training (§5.6)
+# ----------------------------------------------------------------------------------------
+
+def train_stages(model: DFN, data, configs, stages: tuple[str, ...] = STAGES) -> dict:
+    """Train the stages in order with :func:`motionlab.training.train` (§5.6): the frame
+    autoencoder, then the sequence autoencoder with the frame autoencoder frozen, then the
+    dynamics model with both frozen.
+
+    Args:
+        model: a :class:`DFN`.
+        data: a :class:`motionlab.data.MotionData` (or what ``training.train`` accepts with
+            a ``.train`` set of windows).
+        configs: one :class:`motionlab.training.TrainConfig` for all stages, or a dict from
+            stage name to its config.
+        stages: which stages to run (a later stage needs the earlier ones trained).
+
+    Returns ``{stage: History}``.
+    """
+    from .. import training
+    unknown = [s for s in stages if s not in STAGES]
+    if unknown:
+        raise ValueError(f"stages: unknown {unknown}; expected some of {STAGES}")
+    if isinstance(configs, dict):
+        missing = [s for s in stages if s not in configs]
+        if missing:
+            raise ValueError(f"configs: no TrainConfig for stage(s) {missing}")
+    windows = getattr(data, "train", data)
+    windows = windows.windows if hasattr(windows, "windows") else torch.stack(list(windows))
+    histories = {}
+    for stage in stages:
+        model.set_stage(stage, windows)
+        config = configs[stage] if isinstance(configs, dict) else configs
+        histories[stage] = training.train(model, data, config)
+    for p in model.parameters():
+        p.requires_grad_(True)
+    return histories

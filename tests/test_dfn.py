@@ -1,0 +1,224 @@
+"""Dynamic Future Net (Chen et al. 2020): shapes, KL terms, staged training, generation."""
+import math
+
+import numpy as np
+import pytest
+import torch
+from torch.distributions import Normal, kl_divergence
+
+from motionlab import data, metrics, training
+from motionlab import representation as rep
+from motionlab.models.dfn import DFN, STAGES, DFNConfig, gaussian_kl, train_stages
+
+SMALL = DFNConfig(frame_hidden=32, pose_code=6, velocity_code=2, horizon=4, summary=8, past=16,
+                  future=4, current=4, future_prior_hidden=16, current_prior_hidden=16,
+                  summary_decoder_hidden=16, current_posterior_hidden=8, future_posterior_hidden=16,
+                  td_hidden=8, td_max_skip=2)
+
+
+@pytest.fixture(scope="module")
+def prepared():
+    torch.set_num_threads(1)
+    clips = data.load("synthetic", n_clips=8, duration_s=6.0)
+    return data.prepare(clips, window_s=1.0, stride_s=0.5, augment_with=("mirror",))
+
+
+def staged(model, windows):
+    """Put a fresh model in the dynamics stage (standardisation fitted on ``windows``)."""
+    model.set_stage("sequence", windows)
+    model.set_stage("dynamics", windows)
+    return model
+
+
+def test_config_checks_and_paper_sizes():
+    paper = DFNConfig.paper()
+    assert (paper.past, paper.future_prior_hidden, paper.current_prior_hidden) == (128, 256, 128)
+    assert (paper.current_posterior_hidden, paper.future_posterior_hidden, paper.td_hidden) == (32, 512, 32)
+    assert paper.pose_code == 16 and paper.code == paper.pose_code + paper.velocity_code
+    assert DFNConfig.paper(horizon=5).horizon == 5
+    for bad in ({"horizon": 0}, {"observation_std": 0.0}, {"td_weight": -1.0}, {"fps": 0.0}):
+        with pytest.raises(ValueError, match=next(iter(bad))):
+            DFNConfig(**bad)
+
+
+def test_paper_network_shapes():
+    # §5.3: 2-layer GRU of 128; p(f | h) a three-layer MLP, 256 wide, LeakyReLU
+    model = DFN(DFNConfig.paper())
+    d = model.dynamics
+    assert [cell.hidden_size for cell in d.past] == [128, 128]
+    linears = [m for m in d.future_prior.net if isinstance(m, torch.nn.Linear)]
+    assert [m.out_features for m in linears[:-1]] == [256, 256] and len(linears) == 3
+    assert any(isinstance(m, torch.nn.LeakyReLU) for m in d.future_prior.net)
+    assert len([m for m in d.current_prior.net if isinstance(m, torch.nn.Linear)]) == 4     # four-layer
+    assert len([m for m in d.skip if isinstance(m, torch.nn.Linear)]) == 4                  # 3 hidden layers
+    windows = torch.randn(6, 24, 66)                                   # the paper's sizes run end to end
+    model.set_stage("frame", windows)
+    model.set_stage("sequence", windows)
+    model.set_stage("dynamics", windows)
+    assert torch.isfinite(model.loss(windows[:2])["loss"])
+    assert model.generate(windows[:2, :8], 12).shape == (2, 12, 66)
+
+
+def test_shapes(prepared):
+    torch.manual_seed(0)
+    model = DFN(SMALL)
+    x = prepared.train.windows[:3]                                     # (3, 20, 66)
+    assert model.frame.encode(x).shape == (3, 20, SMALL.code)
+    assert model.reconstruct(x).shape == x.shape
+    assert model.reconstruct(x, through="sequence").shape == (3, 20, 66)   # 5 pieces of 4
+    assert model.summaries(model.codes(x)).shape == (3, 20 - SMALL.horizon + 1, SMALL.summary)
+    out = staged(model, prepared.train.windows).infer(x)
+    steps = 20 - SMALL.horizon + 1
+    for key, size in [("h", SMALL.past), ("f", SMALL.future), ("z", SMALL.current), ("x_hat", SMALL.code),
+                      ("s_hat", SMALL.summary), ("qz_mu", SMALL.current), ("pf_logvar", SMALL.future)]:
+        assert out[key].shape == (3, steps, size), key
+
+
+def test_gaussian_kl_matches_torch():
+    g = torch.Generator().manual_seed(0)
+    mu_q, mu_p = torch.randn(5, 7, generator=g), torch.randn(5, 7, generator=g)
+    lv_q, lv_p = torch.randn(5, 7, generator=g), torch.randn(5, 7, generator=g)
+    expected = kl_divergence(Normal(mu_q, (0.5 * lv_q).exp()), Normal(mu_p, (0.5 * lv_p).exp())).sum(-1)
+    assert torch.allclose(gaussian_kl(mu_q, lv_q, mu_p, lv_p), expected, atol=1e-5)
+    unit = kl_divergence(Normal(mu_q, (0.5 * lv_q).exp()), Normal(0.0, 1.0)).sum(-1)
+    assert torch.allclose(gaussian_kl(mu_q, lv_q), unit, atol=1e-5)
+
+
+def test_each_kl_term_of_the_loss_matches_torch(prepared):
+    torch.manual_seed(0)
+    model = staged(DFN(SMALL), prepared.train.windows)
+    batch = prepared.train.windows[:4]
+    torch.manual_seed(1)
+    with torch.no_grad():
+        terms = model.loss(batch)
+    torch.manual_seed(1)
+    with torch.no_grad():
+        out = model.infer(batch)
+    normal = lambda mu, logvar: Normal(mu, (0.5 * logvar).exp())          # noqa: E731
+    kl_z = kl_divergence(normal(out["qz_mu"], out["qz_logvar"]), normal(out["pz_mu"], out["pz_logvar"]))
+    kl_f = kl_divergence(normal(out["qf_mu"], out["qf_logvar"]), normal(out["pf_mu"], out["pf_logvar"]))
+    assert float(terms["kl_z"]) == pytest.approx(float(kl_z.sum(-1).mean()), rel=1e-4)   # q(z|x,h,s) || p(z|h,s^)
+    assert float(terms["kl_f"]) == pytest.approx(float(kl_f.sum(-1).mean()), rel=1e-4)   # q(f|h,s) || p(f|h)
+    td = model.td_terms(out, skip=2)                                                        # §5.5
+    kl_td = kl_divergence(normal(td["td_mu"], td["td_logvar"]),
+                          normal(out["qz_mu"][:, :-2], out["qz_logvar"][:, :-2])).sum(-1)
+    assert torch.allclose(td["td_kl"], kl_td, rtol=1e-4, atol=1e-5)
+    assert td["td_kl"].shape == (4, out["z"].shape[1] - 2)
+    total = sum(float(terms[k]) for k in ("x_nll", "s_nll", "kl_z", "kl_f", "td"))
+    assert float(terms["loss"]) == pytest.approx(total, rel=1e-4)
+
+
+def test_constant_features_are_decoded_exactly(prepared):
+    # the hips' root-local x and z are 0 in every frame: the frame decoder returns them as is
+    model = DFN(SMALL)
+    windows = prepared.train.windows
+    model.set_stage("frame", windows)
+    hips_xz = [0, 2]
+    assert model.frame.constant.nonzero().flatten().tolist() == hips_xz
+    decoded = model.reconstruct(windows[:4])
+    assert torch.equal(decoded[..., hips_xz], windows[:4, :, hips_xz])
+    assert not torch.allclose(decoded[..., 1], windows[:4, :, 1])       # an untrained hips height
+
+
+def test_stages_freeze_the_others(prepared):
+    model = DFN(SMALL)
+    model.set_stage("frame")
+    assert all(p.requires_grad for p in model.frame.parameters())
+    assert not any(p.requires_grad for p in model.dynamics.parameters())
+    staged(model, prepared.train.windows)
+    assert not any(p.requires_grad for p in model.frame.parameters())
+    assert not any(p.requires_grad for p in model.sequence.parameters())
+    assert all(p.requires_grad for p in model.dynamics.parameters())
+    # standardised codes of the training windows
+    codes = model.codes(prepared.train.windows).reshape(-1, SMALL.code)
+    assert torch.allclose(codes.mean(0), torch.zeros(SMALL.code), atol=1e-4)
+    assert torch.allclose(codes.std(0), torch.ones(SMALL.code), atol=1e-3)
+    model.set_stage("dynamics", prepared.train.windows)                 # again: same standardisation
+    summaries = model.summaries(model.codes(prepared.train.windows)).reshape(-1, SMALL.summary)
+    assert torch.allclose(summaries.mean(0), torch.zeros(SMALL.summary), atol=1e-4)
+    assert torch.allclose(summaries.std(0), torch.ones(SMALL.summary), atol=1e-3)
+
+
+def test_staged_training_improves_every_stage(prepared):
+    torch.manual_seed(0)
+    model = DFN(SMALL)
+    frozen = {}
+
+    def config(steps):
+        return training.TrainConfig(epochs=100, max_steps=steps, batch_size=16, lr=3e-3, progress=False)
+
+    histories = {}
+    for stage, steps in zip(STAGES, (100, 150, 100)):
+        before = {name: p.detach().clone() for name, p in model.named_parameters()}
+        histories.update(train_stages(model, prepared.train, {stage: config(steps)}, stages=(stage,)))
+        changed = {name.split(".")[0] for name, p in model.named_parameters()
+                   if not torch.equal(p, before[name])}
+        frozen[stage] = changed
+        losses = histories[stage].series("loss")[1]
+        assert np.isfinite(losses).all()
+        assert losses[-10:].mean() < 0.8 * losses[:10].mean(), stage
+    assert frozen == {"frame": {"frame"}, "sequence": {"sequence"}, "dynamics": {"dynamics"}}
+    assert histories["dynamics"].series("kl_f")[1][-1] > 0
+
+
+def test_generation_length_and_finiteness(prepared):
+    torch.manual_seed(0)
+    model = staged(DFN(SMALL), prepared.train.windows)
+    prefix = prepared.test.windows[:1, :8].expand(3, -1, -1)
+    motion = model.generate(prefix, 200, generator=torch.Generator().manual_seed(0))
+    assert motion.shape == (3, 200, 66) and torch.isfinite(motion).all()
+    assert torch.equal(motion[:, :8], prefix)                          # the prefix comes back as given
+    assert not torch.allclose(motion[0, 8:], motion[1, 8:])            # stochastic
+    again = model.generate(prefix, 200, generator=torch.Generator().manual_seed(0))
+    assert torch.equal(motion, again)                                  # reproducible with a generator
+    mean_path = model.generate(prefix, 50, temperature=0.0)
+    assert torch.allclose(mean_path[0], mean_path[1])                  # temperature 0: no noise
+    out = model.generate(prefix, 30, latents=True)
+    assert out["z"].shape == (3, 22, SMALL.current) and out["f"].shape == (3, 22, SMALL.future)
+    assert model.generate(prefix, 8).shape == (3, 8, 66)               # nothing to generate
+
+
+def test_trained_generation_is_stable_and_diversifies(prepared):
+    """A small model trained briefly: 30 s of generated motion stays within the data's range,
+    keeps moving, and samples from one prefix move apart."""
+    torch.manual_seed(0)
+    config = DFNConfig(frame_hidden=64, past=32, future=8, current=8, horizon=6)
+    model = DFN(config)
+    cfg = lambda steps: training.TrainConfig(epochs=100, max_steps=steps, batch_size=32, lr=3e-3,  # noqa: E731
+                                             progress=False)
+    train_stages(model, prepared.train, {"frame": cfg(150), "sequence": cfg(100), "dynamics": cfg(150)})
+    prefix = prepared.test.windows[:1, :10].expand(8, -1, -1)
+    frames = int(30 * config.fps)
+    motion = model.generate(prefix, frames, generator=torch.Generator().manual_seed(0))
+    features = prepared.normalizer.denormalize(motion.numpy())
+    reference = prepared.normalizer.denormalize(prepared.train.windows.numpy()).reshape(-1, 66)
+    assert metrics.fraction_in_range(features[:, -100:], reference).mean() > 0.9        # no explosion
+    pose = features[..., rep.POSE]
+    speed = metrics.frame_speed(pose, config.fps)
+    data_speed = metrics.frame_speed(reference[None, :2000, rep.POSE], config.fps).mean()
+    assert speed[:, -100:].mean() > 0.3 * data_speed                                     # no freezing
+    spread = metrics.mean_distance_over_time(pose)[0]
+    assert spread[-100:].mean() > 2 * spread[10:20].mean()                               # diversifies
+
+
+@pytest.mark.parametrize("call, match", [
+    (lambda m, w: m.loss(w[..., :65]), "batch"),
+    (lambda m, w: m.loss(w[:, :2]), "batch"),                          # shorter than the horizon
+    (lambda m, w: m.loss(w.clone().fill_(float("nan"))), "NaN"),
+    (lambda m, w: m.generate(w[:, :8, :63], 20), "prefix"),
+    (lambda m, w: m.generate(w[0, :8], 20), "prefix"),
+    (lambda m, w: m.generate(w[:, :8], 5), "frames"),
+    (lambda m, w: m.generate(w[:, :8], 20.0), "frames"),
+    (lambda m, w: m.generate(w[:, :8], 20, temperature=-1.0), "temperature"),
+    (lambda m, w: m.generate(w[:, :8], 20, temperature=math.nan), "temperature"),
+    (lambda m, w: m.reconstruct(w, through="dynamics"), "through"),
+    (lambda m, w: m.set_stage("everything"), "stage"),
+    (lambda m, w: m.set_stage("dynamics"), "windows"),
+    (lambda m, w: m.td_terms(m.infer(w), skip=0), "skip"),
+    (lambda m, w: train_stages(m, w, {}, stages=("frame",)), "configs"),
+    (lambda m, w: train_stages(m, w, {}, stages=("warmup",)), "stages"),
+])
+def test_bad_arguments_raise_value_errors(prepared, call, match):
+    model = staged(DFN(SMALL), prepared.train.windows)
+    with pytest.raises(ValueError, match=match):
+        call(model, prepared.train.windows[:2])
