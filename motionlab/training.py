@@ -161,6 +161,10 @@ def train(model: nn.Module, data, config: TrainConfig | None = None,
         config: a :class:`TrainConfig` (default settings if ``None``).
         history: continue this history (training more epochs later).
 
+    Training runs on ``config.device`` (``"auto"``: a GPU when there is one); when it ends
+    the model goes back to the device it came on (normally the CPU, where the notebooks'
+    tensors are), in eval mode.
+
     Raises:
         NonFiniteLossError: the loss became NaN or infinite (message says where and what to try).
     """
@@ -172,6 +176,7 @@ def train(model: nn.Module, data, config: TrainConfig | None = None,
         torch.set_num_threads(config.num_threads)
     seed_everything(config.seed)
     device = pick_device(config.device)
+    home = next(model.parameters(), torch.empty(0)).device
     model.to(device).train()
     history = history or History()
     start_step = history.train[-1]["step"] + 1 if history.train else 0
@@ -235,7 +240,7 @@ def train(model: nn.Module, data, config: TrainConfig | None = None,
     finally:
         bar.close()
         history.seconds += time.perf_counter() - began
-        model.eval()
+        model.to(home).eval()
     return history
 
 

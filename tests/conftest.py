@@ -59,3 +59,27 @@ def walker(frames: int = 80, fps: float = 20.0, speed: float = 1.2, turn_rate: f
 @pytest.fixture
 def walk() -> np.ndarray:
     return walker()
+
+
+# ----------------------------------------------------------------------------------------
+# The notebooks as tests (nbval)
+# ----------------------------------------------------------------------------------------
+
+NBVAL_OUTPUT_TIMEOUT_S = 60
+"""After a cell finishes, nbval waits for each of its output messages at most 5 seconds, a
+value hard-coded in nbval 0.11 (nbval issues #136 and #231; ``--nbval-cell-timeout`` does
+not cover it). A cell that drew many progress-bar updates can take longer than that to
+deliver them on a busy 2-core machine, and the notebook then fails with "Timeout of 5
+seconds exceeded waiting for output" although it ran correctly. We give it a minute. (This
+hook lives here, not in notebooks/, because a second conftest.py would shadow this one for
+the tests' ``from conftest import ...``; it applies to every item ``pytest`` collects.)"""
+
+
+def pytest_collection_modifyitems(items):
+    try:
+        from nbval.plugin import IPyNbCell
+    except ImportError:                              # nbval not installed: no notebook items
+        return
+    for item in items:
+        if isinstance(item, IPyNbCell):
+            item.output_timeout = NBVAL_OUTPUT_TIMEOUT_S
