@@ -22,13 +22,14 @@ lab: setup
 test: setup
 	$(BIN)/python -m pytest
 
-# The trained weights shipped in data/checkpoints (notebook 06 loads them; about 6 minutes on
+# The trained weights shipped in data/checkpoints (notebook 06 loads them; about 7 minutes on
 # 2 CPU cores). Each is the command line's checkpoint, weights stored as float16.
 MOGLOW = $(BIN)/python -m motionlab.train moglow --epochs 40 --lr 3e-3 --batch-size 32 --half
 checkpoints: setup
 	$(MOGLOW) --out data/checkpoints/moglow_dropout.pt
 	$(MOGLOW) --set dropout=0.0 --out data/checkpoints/moglow_no_dropout.pt
 	$(MOGLOW) --set recurrent=false --out data/checkpoints/moglow_markov.pt
+	$(MOGLOW) --set recurrent=false hidden=205 --out data/checkpoints/moglow_markov_matched.pt
 
 clean:
 	rm -rf $(VENV) build *.egg-info

@@ -3,9 +3,10 @@
     python benchmarks/moglow.py [cmu_folder] [--epochs 40] [--retrain]
 
 For each data set (the built-in synthetic data; real CMU clips when the folder exists,
-default ../shared/mocap/cmu) three laptop-size models (`MoGlowConfig()`) are trained, or
+default ../shared/mocap/cmu) four laptop-size models (`MoGlowConfig()`) are trained, or
 on synthetic data loaded from `data/checkpoints/` when they fit: MoGlow with history
-dropout 0.7, the same without dropout, and the Markov variant (feed-forward couplings).
+dropout 0.7, the same without dropout, and the Markov variant (feed-forward couplings) at
+the same width and widened to the same number of weights ("Markov, wide").
 It prints
 
 1. test NLL in bits per predicted frame (normalised units and metres);
@@ -35,7 +36,8 @@ TEMPERATURE = 0.3
 
 
 def models_for(prepared, config: MoGlowConfig, epochs: int, tag: str, retrain: bool) -> dict[str, MoGlow]:
-    labels = {"dropout 0.7": "dropout", "no dropout": "no_dropout", "Markov": "markov"}
+    labels = {"dropout 0.7": "dropout", "no dropout": "no_dropout", "Markov": "markov",
+              "Markov, wide": "markov_matched"}
     models = {}
     for label, variant in labels.items():
         model, history = moglow.train_or_load(prepared, variant, config, epochs, retrain=retrain,

@@ -180,7 +180,8 @@ def test_shipped_moglow_checkpoints_fit_the_default_config():
     folder = Path(__file__).resolve().parents[1] / "data" / "checkpoints"
     default = MoGlowConfig()
     for name, config in [("dropout", default), ("no_dropout", replace(default, dropout=0.0)),
-                         ("markov", replace(default, recurrent=False))]:
+                         ("markov", replace(default, recurrent=False)),
+                         ("markov_matched", replace(default, recurrent=False, hidden=205))]:
         checkpoint = training.load_checkpoint(folder / f"moglow_{name}.pt", config=config)
         assert checkpoint.description["source"] == "synthetic" and checkpoint.description["window_frames"] == 40
         assert len(checkpoint.history.train) == 1760

@@ -580,13 +580,16 @@ def long_sample_spread(model: MoGlow, normalizer, start, control, temperature: f
 CHECKPOINTS = Path(__file__).resolve().parents[2] / "data" / "checkpoints"
 """The repository's ``data/checkpoints``: MoGlow models made by ``make checkpoints``."""
 
-VARIANTS = {"dropout": {}, "no_dropout": {"dropout": 0.0}, "markov": {"recurrent": False}}
-"""The three models notebook 06 compares, as changes to a base config."""
+VARIANTS = {"dropout": {}, "no_dropout": {"dropout": 0.0}, "markov": {"recurrent": False},
+            "markov_matched": {"recurrent": False, "hidden": 205}}
+"""The models notebook 06 compares, as changes to a base config. ``markov_matched`` is the
+Markov model widened to as many weights as the laptop LSTM model (803 k), for a fair
+comparison of the two at the laptop size."""
 
 
 def train_or_load(prepared, variant: str = "dropout", config: MoGlowConfig = MoGlowConfig(), epochs: int = 40,
                   retrain: bool = False, cache: str | Path | None = None):
-    """A trained MoGlow ``variant`` (``"dropout"``, ``"no_dropout"`` or ``"markov"``) of
+    """A trained MoGlow ``variant`` (a key of :data:`VARIANTS`) of
     ``config`` for the data ``prepared`` (:func:`motionlab.data.prepare`), and its history.
 
     Uses the shipped checkpoint ``data/checkpoints/moglow_<variant>.pt`` when it holds this
