@@ -267,15 +267,20 @@ class MoGlow(nn.Module):
             for network in networks:
                 network.carrying, network.state = False, None
 
-    def _check_sampling(self, control: torch.Tensor, history: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        device = self.modelled.device
-        history = torch.as_tensor(history, dtype=torch.float32, device=device)
-        control = torch.as_tensor(control, dtype=torch.float32, device=device)
-        tau, c = self.config.history, self.config.n_control
-        if history.ndim != 3 or history.shape[1] != tau:
+    def _history_tensor(self, history) -> torch.Tensor:
+        """``history`` as a float tensor, checked to be ``(batch, τ, n_features)``."""
+        history = torch.as_tensor(history, dtype=torch.float32, device=self.modelled.device)
+        tau, n = self.config.history, self.config.n_features
+        if history.ndim != 3 or history.shape[1] != tau or history.shape[2] != n:
             raise ValueError(f"history: expected the {tau} frames before the first generated one, "
-                             f"(batch, {tau}, {self.config.n_features}), got {tuple(history.shape)}")
-        self._check(history, "history", min_frames=tau)
+                             f"(batch, {tau}, {n}), got {tuple(history.shape)}")
+        return history
+
+    def _check_sampling(self, control: torch.Tensor, history: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        history = self._history_tensor(history)
+        self._check(history, "history", min_frames=self.config.history)
+        control = torch.as_tensor(control, dtype=torch.float32, device=self.modelled.device)
+        c = self.config.n_control
         if control.ndim != 3 or control.shape[0] != history.shape[0] or control.shape[2] != c or control.shape[1] < 1:
             raise ValueError(f"control: expected ({history.shape[0]}, frames, {c}) normalised, one row per frame "
                              f"to generate, got {tuple(control.shape)}")
@@ -317,12 +322,14 @@ class MoGlow(nn.Module):
             self.train(was_training)
         return self.join_features(poses[:, tau:], control)
 
-    def _noise(self, noise, shape, generator):
-        temperature_free = self.prior.sample(shape, 1.0, generator, device=self.modelled.device) \
-            if noise is None else torch.as_tensor(noise, dtype=torch.float32, device=self.modelled.device)
-        if tuple(temperature_free.shape) != tuple(shape):
-            raise ValueError(f"noise: expected {tuple(shape)}, got {tuple(temperature_free.shape)}")
-        return temperature_free
+    def _noise(self, noise, shape, generator) -> torch.Tensor:
+        """Standard-normal ``ε`` of ``shape``: ``noise`` checked, or drawn with ``generator``."""
+        if noise is None:
+            return self.prior.sample(shape, 1.0, generator, device=self.modelled.device)
+        epsilon = torch.as_tensor(noise, dtype=torch.float32, device=self.modelled.device)
+        if tuple(epsilon.shape) != tuple(shape):
+            raise ValueError(f"noise: expected {tuple(shape)}, got {tuple(epsilon.shape)}")
+        return epsilon
 
     def generate(self, control, history, normalizer, n: int = 1, temperature: float = 1.0,
                  seed: int = 0) -> np.ndarray:
@@ -415,13 +422,13 @@ class MoGlowStream:
         if not (math.isfinite(self.temperature) and self.temperature >= 0):
             raise ValueError(f"temperature: expected a finite number >= 0, got {temperature}")
         device = model.modelled.device
+        history = model._history_tensor(history)
         if normalizer is not None:
             self._mean = torch.as_tensor(np.asarray(normalizer.mean), dtype=torch.float32, device=device)
             self._std = torch.as_tensor(np.asarray(normalizer.std), dtype=torch.float32, device=device)
-            history = (torch.as_tensor(history, dtype=torch.float32, device=device) - self._mean) / self._std
+            history = (history - self._mean) / self._std
             history[..., model.constant] = 0.0
-        dummy = torch.zeros(torch.as_tensor(history).shape[0], 1, model.config.n_control)
-        _, history = model._check_sampling(dummy, history)
+        model._check(history, "history", min_frames=model.config.history)
         self.batch = history.shape[0]
         self.poses = history[..., model.modelled].clone()               # (batch, τ, n_modelled)
         self.controls = history[..., model.control].clone()             # (batch, τ, n_control)
