@@ -17,7 +17,6 @@ the moment the loss stops being a finite number.
 from __future__ import annotations
 
 import dataclasses
-import importlib
 import math
 import os
 import random
@@ -294,7 +293,7 @@ def _class_path(cls: type) -> str:
 def register_model(model_class: type, config_class: type) -> None:
     """Let checkpoints hold ``model_class`` (built as ``model_class(config_class(**saved))``).
 
-    motionlab's own models (``motionlab.models.CHECKPOINT_MODELS``) are always registered.
+    motionlab's own models (:func:`registered_models`) are always registered.
     Loading never imports or calls a name read from the file: the file's class name is only
     looked up among the classes registered here, in code.
     """
@@ -307,12 +306,11 @@ def register_model(model_class: type, config_class: type) -> None:
 
 def registered_models() -> dict[str, tuple[type, type]]:
     """``{"module.ModelClass": (model class, config class)}`` of every model a checkpoint may hold."""
-    from .models import CHECKPOINT_MODELS
-    known = {}
-    for module_name, model_name, config_name in CHECKPOINT_MODELS.values():
-        module = importlib.import_module(module_name)       # a name from our own table, not a file
-        model_class, config_class = getattr(module, model_name), getattr(module, config_name)
-        known[_class_path(model_class)] = (model_class, config_class)
+    from .models import conv_ae, dfn, glow, lstm, moglow, vae, vae_lstm
+    built_in = [(conv_ae.ConvAutoencoder, conv_ae.ConvAEConfig), (vae.FeatureVAE, vae.VAEConfig),
+                (vae_lstm.VAELSTM, vae_lstm.VAELSTMConfig), (lstm.MotionLSTM, lstm.LSTMConfig),
+                (glow.Glow, glow.GlowConfig), (moglow.MoGlow, moglow.MoGlowConfig), (dfn.DFN, dfn.DFNConfig)]
+    known = {_class_path(model_class): (model_class, config_class) for model_class, config_class in built_in}
     known.update(_REGISTERED)
     return known
 
