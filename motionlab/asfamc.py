@@ -48,12 +48,16 @@ A malformed file raises ``ValueError`` whose message starts with ``"<file>:<line
 """
 from __future__ import annotations
 
+import math
 import re
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from . import checks
+from .bvh import read_text_lines
 from .skeleton import LOCOMOTION
 
 ROTATION_DOFS = ("rx", "ry", "rz")
@@ -263,21 +267,21 @@ class _Source:
 
     def __init__(self, path: str, what: str):
         self.path = path
-        try:
-            text = Path(path).read_text(encoding="utf-8", errors="replace")
-        except OSError as err:
-            raise ValueError(f"{path}: cannot read {what} file ({err.strerror})") from None
-        self.lines = text.splitlines()
+        self.lines = read_text_lines(path, what)      # BOM, binary data and HTML handled there
         self.n_lines = len(self.lines)
 
     def error(self, line: int, message: str) -> ValueError:
         return ValueError(f"{self.path}:{line}: {message}")
 
     def number(self, word: str, line: int, what: str) -> float:
+        """``word`` as a finite float (``nan``, ``inf`` and ``1e400`` are refused)."""
         try:
-            return float(word)
+            value = float(word)
         except ValueError:
             raise self.error(line, f"bad number {word!r} for {what}") from None
+        if not math.isfinite(value):
+            raise self.error(line, f"bad number {word!r} for {what}: not a finite number")
+        return value
 
     def numbers(self, words: list[str], count: int, line: int, what: str) -> np.ndarray:
         if len(words) != count:
@@ -289,6 +293,7 @@ def _sections(source: _Source) -> dict[str, tuple[int, list[str], list[tuple[int
     """Split an ASF into its sections: keyword -> (line, words after the keyword, body).
 
     The body is the list of ``(line number, words)`` of the section's non-comment lines.
+    Section keywords are read in any letter case (``:ROOT``) and returned in lower case.
     """
     sections: dict[str, tuple[int, list[str], list[tuple[int, list[str]]]]] = {}
     current = None
@@ -297,9 +302,9 @@ def _sections(source: _Source) -> dict[str, tuple[int, list[str], list[tuple[int
         if not words or words[0].startswith("#"):
             continue
         if words[0].startswith(":"):
-            keyword = words[0]
+            keyword = words[0].lower()
             if keyword not in ASF_SECTIONS:
-                raise source.error(n, f"unknown section {keyword!r}; ASF sections are "
+                raise source.error(n, f"unknown section {words[0]!r}; ASF sections are "
                                       f"{', '.join(ASF_SECTIONS)}")
             if keyword in sections:
                 raise source.error(n, f"second {keyword} section")
@@ -316,15 +321,15 @@ def _parse_units(source: _Source, body) -> tuple[float, float, str]:
     """``(mass, length, angle)`` from the ``:units`` lines; 1, 1 and ``"deg"`` if not given."""
     units: dict[str, object] = {"mass": 1.0, "length": 1.0, "angle": "deg"}
     for n, words in body:
-        key, value = words[0], words[1:]
+        key, value = words[0].lower(), words[1:]
         if key in ("mass", "length"):
             units[key] = number = source.numbers(value, 1, n, f"units {key}")[0]
             if number <= 0:
                 raise source.error(n, f"units {key} must be positive, got {number:g}")
         elif key == "angle":
-            if value not in (["deg"], ["rad"]):
+            if [v.lower() for v in value] not in (["deg"], ["rad"]):
                 raise source.error(n, f"units angle must be 'deg' or 'rad', got {' '.join(value)!r}")
-            units[key] = value[0]
+            units[key] = value[0].lower()
         else:
             raise source.error(n, f"unknown unit {key!r}; expected mass, length or angle")
     return float(units["mass"]), float(units["length"]), str(units["angle"])
@@ -341,7 +346,7 @@ def _parse_root(source: _Source, body, to_degrees: float):
     order, axis = ROOT_CHANNELS, "XYZ"
     position, orientation = np.zeros(3), np.zeros(3)
     for n, words in body:
-        key, value = words[0], words[1:]
+        key, value = words[0].lower(), words[1:]
         if key == "order":
             order = tuple(w.upper() for w in value)
             unknown = [w for w in order if w not in ROOT_CHANNELS]
@@ -365,6 +370,14 @@ def _parse_root(source: _Source, body, to_degrees: float):
 _LIMIT = re.compile(r"\(\s*([^\s()]+)\s+([^\s()]+)\s*\)")
 
 
+def _limit(source: _Source, word: str, n: int) -> float:
+    """One limit: a finite number, or the word ``inf`` / ``-inf`` (no limit, as the
+    Acclaim format allows: ``limits (-inf inf)``). ``nan`` and ``1e400`` are refused."""
+    if word.lower() in ("inf", "+inf", "-inf"):
+        return float(word)
+    return source.number(word, n, "a limit")
+
+
 def _parse_limits(source: _Source, lines: list[tuple[int, list[str]]]) -> list[tuple[float, float]]:
     """``limits (a b)`` pairs, one or more per line, over the lines given."""
     limits = []
@@ -373,8 +386,24 @@ def _parse_limits(source: _Source, lines: list[tuple[int, list[str]]]) -> list[t
         pairs = _LIMIT.findall(text)
         if not pairs or _LIMIT.sub("", text).strip():
             raise source.error(n, f"bad limits {text!r}; expected pairs like (-160.0 20.0)")
-        limits += [(source.number(a, n, "a limit"), source.number(b, n, "a limit")) for a, b in pairs]
+        limits += [(_limit(source, a, n), _limit(source, b, n)) for a, b in pairs]
     return limits
+
+
+def _direction(source: _Source, words: list[str], n: int) -> np.ndarray:
+    """A bone's ``direction``: three finite numbers, not all zero."""
+    direction = source.numbers(words, 3, n, "direction")
+    if not np.linalg.norm(direction) > 1e-9:
+        raise source.error(n, f"direction {' '.join(words)} has length zero; a bone needs a direction")
+    return direction
+
+
+def _length(source: _Source, words: list[str], n: int) -> float:
+    """A bone's ``length``: a finite number >= 0, file length units."""
+    length = float(source.numbers(words, 1, n, "length")[0])
+    if length < 0:
+        raise source.error(n, f"length must be >= 0, got {words[0]}")
+    return length
 
 
 def _parse_bone(source: _Source, begin_line: int, lines, index: int, to_degrees: float) -> Bone:
@@ -382,7 +411,7 @@ def _parse_bone(source: _Source, begin_line: int, lines, index: int, to_degrees:
     fields: dict[str, object] = {}
     limit_lines: list[tuple[int, list[str]]] = []
     for n, words in lines:
-        key, value = words[0], words[1:]
+        key, value = words[0].lower(), words[1:]
         if key.startswith("(") and limit_lines:
             limit_lines.append((n, words))
         elif key == "limits":
@@ -394,9 +423,11 @@ def _parse_bone(source: _Source, begin_line: int, lines, index: int, to_degrees:
                 raise source.error(n, "a bone needs exactly one name")
             fields["name"] = value[0]
         elif key == "direction":
-            fields["direction"] = source.numbers(value, 3, n, "direction")
+            fields["direction"] = _direction(source, value, n)
         elif key == "length":
-            fields["length"] = source.numbers(value, 1, n, "length")[0]
+            fields["length"] = _length(source, value, n)
+        elif key in ("bodymass", "cofmass"):            # optional in the Acclaim format, unused here
+            source.numbers(value, 1, n, key)
         elif key == "axis":
             if len(value) != 4:
                 raise source.error(n, "axis needs three angles and an order, e.g. 'axis 0 0 20 XYZ'")
@@ -430,11 +461,12 @@ def _parse_bone(source: _Source, begin_line: int, lines, index: int, to_degrees:
 def _parse_bonedata(source: _Source, line: int, body, to_degrees: float) -> list[Bone]:
     bones, block, begin_line = [], None, line
     for n, words in body:
-        if words == ["begin"]:
+        keyword = words[0].lower() if len(words) == 1 else None
+        if keyword == "begin":
             if block is not None:
                 raise source.error(n, "'begin' inside a bone; missing 'end'")
             block, begin_line = [], n
-        elif words == ["end"]:
+        elif keyword == "end":
             if block is None:
                 raise source.error(n, "'end' without 'begin'")
             bones.append(_parse_bone(source, begin_line, block, len(bones), to_degrees))
@@ -453,11 +485,16 @@ def _parse_bonedata(source: _Source, line: int, body, to_degrees: float) -> list
 
 
 def _parse_hierarchy(source: _Source, line: int, body, bone_names: list[str]) -> dict[str, tuple[str, ...]]:
+    """The ``:hierarchy`` lines ``parent child child ...`` -> ``{parent: (child, ...)}``.
+
+    ``begin``, ``end`` and ``root`` may be in any letter case; bone names must match exactly.
+    """
     children: dict[str, tuple[str, ...]] = {}
     parent_of: dict[str, str] = {}
     known = set(bone_names) | {"root"}
-    rows = [(n, words) for n, words in body if words not in (["begin"], ["end"])]
+    rows = [(n, words) for n, words in body if [w.lower() for w in words] not in (["begin"], ["end"])]
     for n, words in rows:
+        words = ["root" if w.lower() == "root" and w not in known else w for w in words]
         for name in words:
             if name not in known:
                 raise source.error(n, f"unknown bone {name!r} in :hierarchy")
@@ -484,9 +521,12 @@ def read_asf(path: str | Path) -> ASF:
     """Read an Acclaim skeleton (``.asf``) file.
 
     Angles come back in degrees whatever ``:units angle`` says; lengths stay in file units.
-    Raises ``ValueError`` starting ``"<file>:<line>:"`` for an unknown section or keyword,
-    a bad number, an unknown dof, limits that do not match the dofs, or a missing,
-    inconsistent or incomplete ``:hierarchy``.
+    Section names and keywords may be in any letter case (``:BONEDATA``, ``LENGTH``), and
+    the file may start with a UTF-8 byte order mark. Raises ``ValueError`` starting
+    ``"<file>:<line>:"`` for an unknown section or keyword, a bad or non-finite number
+    (``nan``, ``inf``, ``1e400``; only limits may say ``-inf``/``inf``), a direction of
+    length zero, a negative length, an unknown dof, limits that do not match the dofs, or a
+    missing, inconsistent or incomplete ``:hierarchy``; ``"<file>:"`` for binary data.
     """
     source = _Source(str(path), "ASF")
     sections = _sections(source)
@@ -510,14 +550,24 @@ def read_asf(path: str | Path) -> ASF:
 _AMC_LINE = re.compile(r"^[ \t]*([^#\s]\S*)[ \t]*([^\n]*)", re.MULTILINE)
 """A non-blank, non-comment line: its first word and the rest of the line."""
 
+MAX_FRAME_NUMBER_DIGITS = 9
+"""Frame numbers have at most this many digits (10**9 frames: 96 days at 120 fps)."""
+
+
+def _is_frame_number(word: str) -> bool:
+    """Whether ``word`` is a frame number: ASCII digits only."""
+    return word.isascii() and word.isdigit()
+
 
 def _amc_header(source: _Source) -> tuple[int, str | None, bool]:
     """Read the keywords before the first frame: returns the first frame's line index
     (0-based), the angle unit (``None`` if not stated) and ``:FULLY-SPECIFIED``."""
     angle, fully_specified = None, False
     for i, line in enumerate(source.lines):
+        if not line or line.isspace():              # skipped without splitting: fast on huge files
+            continue
         words = line.split()
-        if not words or words[0].startswith("#"):
+        if words[0].startswith("#"):
             continue
         if words[0].startswith(":"):
             keyword = words[0].upper()
@@ -529,10 +579,12 @@ def _amc_header(source: _Source) -> tuple[int, str | None, bool]:
             else:
                 angle = "deg" if keyword == ":DEGREES" else "rad"
             continue
-        if len(words) != 1 or not words[0].isdigit():
+        if len(words) != 1 or not _is_frame_number(words[0]):
             raise source.error(i + 1, f"expected a frame number, found {line.strip()[:40]!r}")
         return i, angle, fully_specified
-    return len(source.lines), angle, fully_specified
+    if all(not line or line.isspace() for line in source.lines):
+        raise ValueError(f"{source.path}: no frames: the file is empty")
+    raise source.error(source.n_lines, "no frames: the file has only a header")
 
 
 def _line_numbers(source: _Source, first: int) -> list[int]:
@@ -556,17 +608,19 @@ def _bone_values(source: _Source, first: int, bone: str, n_dof: int, rows: np.nd
     if len(words) == len(rows) * (n_dof + 1) - 1 and separators.count("|") == len(rows) - 1:
         del words[n_dof::n_dof + 1]
         try:
-            return np.array(words, dtype=np.float64).reshape(len(rows), n_dof)
+            values = np.array(words, dtype=np.float64).reshape(len(rows), n_dof)
         except ValueError:
-            pass
+            values = None
+        if values is not None and np.isfinite(values).all():
+            return values
     line_of = _line_numbers(source, first)                    # slow path: find the culprit
     for r in rows:
         values = texts[r].split()
         if len(values) != n_dof:
             raise source.error(line_of[r], f"bone {bone} has {n_dof} dofs, found {len(values)} values")
         for word in values:
-            source.number(word, line_of[r], f"bone {bone}")
-    raise AssertionError("unreachable: every row has n_dof numbers")
+            source.number(word, line_of[r], f"bone {bone}")       # refuses nan, inf, 1e400
+    raise AssertionError("unreachable: every row has n_dof finite numbers")
 
 
 def _dof_columns(dof: tuple[str, ...], names: tuple[str, ...]) -> list[int]:
@@ -578,10 +632,18 @@ def _frame_of_each_line(source: _Source, first: int, heads: list[str],
                         texts: list[str]) -> tuple[np.ndarray, np.ndarray]:
     """Which frame each line belongs to ``(lines,)``, and where frames start ``(frames,)``.
 
-    Checks that frame number lines hold only the number and that the numbers are contiguous.
+    Checks that frame number lines hold only the number, that the numbers have at most
+    :data:`MAX_FRAME_NUMBER_DIGITS` digits and that they are contiguous.
     """
-    is_frame = np.array([head.isdigit() for head in heads], dtype=bool)
+    is_frame = np.array([_is_frame_number(head) for head in heads], dtype=bool)
     frame_rows = np.flatnonzero(is_frame)
+    too_long = [r for r in frame_rows if len(heads[r]) > MAX_FRAME_NUMBER_DIGITS]
+    if too_long:
+        line = _line_numbers(source, first)[too_long[0]]
+        number = heads[too_long[0]]
+        shown = number if len(number) <= 30 else f"{number[:20]}... ({len(number)} digits)"
+        raise source.error(line, f"frame number {shown} is too large "
+                                 f"(more than {MAX_FRAME_NUMBER_DIGITS} digits)")
     frame_numbers = np.array([int(heads[r]) for r in frame_rows], dtype=np.int64)
     with_values = [r for r in frame_rows if texts[r]]
     jumps = np.flatnonzero(np.diff(frame_numbers) != 1)
@@ -595,15 +657,42 @@ def _frame_of_each_line(source: _Source, first: int, heads: list[str],
     return np.cumsum(is_frame) - 1, frame_rows
 
 
+def _last_frame_cut_short(heads: list[str], texts: list[str], frame_rows: np.ndarray,
+                          bone_of: np.ndarray, n_dofs: list[int]) -> str:
+    """Why the last frame looks cut short (the file ends inside it), or ``""`` if it does not.
+
+    It is cut short when the file ends right after its frame number, when it lacks a bone
+    that the frame before it has, or when the file's last line names no known bone
+    (``bone_of`` -1) or has fewer values than that bone's ``n_dofs``.
+    """
+    last, final = frame_rows[-1], len(heads) - 1
+    if final == last:
+        return "the file ends after its frame number"
+    if len(frame_rows) > 1:
+        before = set(bone_of[frame_rows[-2] + 1:last].tolist()) - {-1}
+        missing = before - set(bone_of[last + 1:].tolist())
+        if missing:
+            return f"{len(missing)} bone(s) of the frame before it are missing"
+    if bone_of[final] < 0:
+        return f"its last line starts with {heads[final]!r}, not a bone"
+    found = len(texts[final].split())
+    if found < n_dofs[bone_of[final]]:
+        return f"its last line has {found} of bone {heads[final]}'s {n_dofs[bone_of[final]]} values"
+    return ""
+
+
 def read_amc(path: str | Path, asf: ASF) -> AMC:
     """Read an Acclaim motion (``.amc``) file for skeleton ``asf``.
 
     Frames must be numbered contiguously. A bone missing from a frame gets zeros (its rest
-    pose relative to its parent) in that frame; a bone given twice in a frame, a bone the
-    ASF does not have, or the wrong number of values for a bone's dofs raises
-    ``ValueError`` starting ``"<file>:<line>:"``. Parsing is vectorised per bone, not per
-    frame. Angles are converted to degrees when the file says ``:RADIANS`` (without
-    ``:DEGREES``/``:RADIANS``, the ASF's angle unit applies).
+    pose relative to its parent) in that frame, except in the last frame: a file that ends
+    inside its last frame (it was cut short, see :func:`_last_frame_cut_short`) loses that
+    frame, with a warning naming the file. A file without frames, a bone given twice in a
+    frame, a bone the ASF does not have, the wrong number of values for a bone's dofs or a
+    value that is not a finite number (``nan``, ``inf``, ``1e400``) raises ``ValueError``
+    starting ``"<file>:<line>:"``. Parsing is vectorised per bone, not per frame. Angles are
+    converted to degrees when the file says ``:RADIANS`` (without ``:DEGREES``/``:RADIANS``,
+    the ASF's angle unit applies).
     """
     source = _Source(str(path), "AMC")
     first, angle, fully_specified = _amc_header(source)
@@ -617,6 +706,16 @@ def read_amc(path: str | Path, asf: ASF) -> AMC:
     bone_ids = {name: i for i, name in enumerate(dofs)}
     bone_of = np.array([bone_ids.get(head, -1) for head in heads], dtype=np.int64)
     bone_of[frame_rows] = len(bone_ids)                                # frame number lines
+    cut = _last_frame_cut_short(heads, texts, frame_rows, bone_of, [len(d) for d in dofs.values()])
+    if cut:
+        line = _line_numbers(source, first)[frame_rows[-1]]
+        warnings.warn(f"{path}:{line}: the last frame ({heads[frame_rows[-1]]}) is incomplete "
+                      f"({cut}); the file looks cut short, so that frame is dropped", stacklevel=2)
+        keep = frame_rows[-1]
+        heads, texts, bone_of, frame_of = heads[:keep], texts[:keep], bone_of[:keep], frame_of[:keep]
+        frame_rows = frame_rows[:-1]
+        if len(frame_rows) == 0:
+            raise source.error(line, "no complete frame: the file ends inside its first frame")
     unknown = np.flatnonzero(bone_of < 0)
     if len(unknown):
         line = _line_numbers(source, first)[unknown[0]]
@@ -636,7 +735,7 @@ def read_amc(path: str | Path, asf: ASF) -> AMC:
         per_frame[frames] = _bone_values(source, first, name, len(dofs[name]), rows, texts)
         per_frame[:, _dof_columns(dofs[name], ROTATION_DOFS)] *= to_degrees
         values[name] = per_frame
-    first_frame = int(heads[frame_rows[0]]) if len(frame_rows) else 1
+    first_frame = int(heads[frame_rows[0]])
     return AMC(values, first_frame, angle, fully_specified, str(path))
 
 
@@ -721,13 +820,17 @@ _TRIAL_NAME = re.compile(r"^(\d+)_\d+$")
 
 
 def skeleton_path(amc_path: str | Path) -> Path:
-    """The subject's skeleton next to a CMU trial: ``.../16_15.amc`` -> ``.../16.asf``."""
+    """The subject's skeleton next to a CMU trial: ``.../16_15.amc`` -> ``.../16.asf``
+    (or ``16.ASF``: the extension may be in any letter case)."""
     amc_path = Path(amc_path)
     match = _TRIAL_NAME.match(amc_path.stem)
     if not match:
         raise ValueError(f"{amc_path}: cannot tell the subject from the name (expected "
                          "<subject>_<trial>.amc, e.g. 16_15.amc); pass asf_path")
     asf_path = amc_path.with_name(f"{match.group(1)}.asf")
+    if not asf_path.is_file() and amc_path.parent.is_dir():
+        asf_path = next((p for p in sorted(amc_path.parent.iterdir())
+                         if p.name.lower() == asf_path.name and p.is_file()), asf_path)
     if not asf_path.is_file():
         raise ValueError(f"{amc_path}: its skeleton {asf_path.name} is not in {asf_path.parent}; "
                          "fetch it (python -m motionlab.download) or pass asf_path")
@@ -746,6 +849,7 @@ def load_locomotion(amc_path: str | Path, asf_path: str | Path | None = None,
     Joints are :data:`LOCOMOTION_FROM_ASF` in ``skeleton.LOCOMOTION`` order, y up, every
     frame of the file (unlike cgspeed BVH files, no T-pose frame to drop).
     """
+    fps = checks.rate(fps, "fps")
     asf = read_asf(asf_path if asf_path is not None else skeleton_path(amc_path))
     amc = read_amc(amc_path, asf)
     positions, names = world_positions(asf, amc)
@@ -761,6 +865,8 @@ def load_clip(amc_path: str | Path, asf_path: str | Path | None = None, fps: flo
     """A CMU trial as a :class:`motionlab.data.Clip` (named like ``"16_15"``), resampled to
     ``fps`` if given; ``source_fps`` is the capture rate. Ready for ``data.prepare``."""
     from .data import Clip
-    positions, rate = load_locomotion(amc_path, asf_path, source_fps)
+    if fps is not None:
+        fps = checks.rate(fps, "fps")
+    positions, rate = load_locomotion(amc_path, asf_path, checks.rate(source_fps, "source_fps"))
     clip = Clip(Path(amc_path).stem, positions, rate, str(amc_path))
     return clip.resampled(fps) if fps is not None else clip

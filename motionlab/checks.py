@@ -42,6 +42,14 @@ def positive(value, name: str, maximum: float | None = None) -> float:
     return value
 
 
+def non_negative(value, name: str, maximum: float = math.inf) -> float:
+    """``value`` as a float if it is a number from 0 to ``maximum`` (for smoothing widths and
+    tolerances, where 0 means "none"), else ``ValueError``."""
+    if _is_number(value) and 0 <= value <= maximum:
+        return float(value)
+    raise ValueError(f"{name}: expected a number from 0 to {maximum:g}, got {value!r}")
+
+
 def rate(value, name: str = "fps") -> float:
     """A frame rate in frames per second: finite, ``> 0`` and at most :data:`MAX_FPS`."""
     return positive(value, name, MAX_FPS)

@@ -21,6 +21,7 @@ import numpy as np
 import torch
 
 from . import bvh as bvh_io
+from . import checks
 from .filters import resample
 from .representation import (FACING_SMOOTHING_S, POSE, mirror_features, reverse_features,
                              to_features)
@@ -30,6 +31,9 @@ CMU_UNIT_M = 0.0254 / 0.45
 """Metres per CMU length unit (the ASF ``length 0.45``: 1 unit = 1/0.45 inch = 5.644 cm)."""
 
 LOCOMOTION_FROM_CMU = tuple(CMU_JOINTS[i] for i in CMU_TO_LOCOMOTION)
+
+MOTION_SUFFIXES = (".bvh", ".amc")
+"""File types :func:`load` reads from a folder (in any letter case: ``.BVH`` too)."""
 
 
 @dataclass
@@ -62,6 +66,7 @@ class Clip:
 
     def resampled(self, fps: float) -> "Clip":
         """This clip at another frame rate (anti-aliased, see :func:`filters.resample`)."""
+        fps = checks.rate(fps, "fps")
         if fps == self.fps:
             return self
         return Clip(self.name, resample(self.positions, self.fps, fps), fps, self.source)
@@ -81,6 +86,21 @@ def has_tpose_frame(clip: bvh_io.BVH) -> bool:
     return bool(np.all(first == np.round(first)) and np.mean(first == 0) > 0.5)
 
 
+def locomotion_joints(clip: bvh_io.BVH) -> list[int]:
+    """Indices into ``clip.joint_names`` of the 21 locomotion joints, in locomotion order.
+
+    Joints are found by their CMU names (:data:`LOCOMOTION_FROM_CMU`); the hips are the
+    joint named ``Hips`` or, when there is none, the root joint whatever its name (some
+    exporters call it ``Root`` or ``pelvis``). Raises ``ValueError`` listing missing joints.
+    """
+    index = {name: j for j, name in enumerate(clip.joint_names)}
+    index.setdefault("Hips", int(np.flatnonzero(np.asarray(clip.parents) < 0)[0]))
+    missing = [n for n in LOCOMOTION_FROM_CMU if n not in index]
+    if missing:
+        raise ValueError(f"{clip.path}: not a CMU-style skeleton, missing joints {', '.join(missing)}")
+    return [index[n] for n in LOCOMOTION_FROM_CMU]
+
+
 def load_bvh(path: str | Path, fps: float | None = None, unit_m: float = CMU_UNIT_M,
              drop_tpose: bool | str = "auto") -> Clip:
     """Load a BVH file with CMU joint names as a 21-joint :class:`Clip`.
@@ -91,18 +111,23 @@ def load_bvh(path: str | Path, fps: float | None = None, unit_m: float = CMU_UNI
         unit_m: metres per file length unit (default: CMU units).
         drop_tpose: drop frame 0 if it is a cgspeed T-pose; ``"auto"`` detects it
             (:func:`has_tpose_frame`), ``True``/``False`` force it.
+
+    The root joint stands in for ``Hips`` when no joint has that name
+    (:func:`locomotion_joints`). A malformed file raises ``ValueError`` naming it.
     """
     path = Path(path)
+    if fps is not None:
+        fps = checks.rate(fps, "fps")
+    unit_m = checks.positive(unit_m, "unit_m")
+    if drop_tpose not in ("auto", True, False):
+        raise ValueError(f"drop_tpose: expected 'auto', True or False, got {drop_tpose!r}")
     clip = bvh_io.read(path)
-    missing = [n for n in LOCOMOTION_FROM_CMU if n not in clip.joint_names]
-    if missing:
-        raise ValueError(f"{path}: not a CMU-style skeleton, missing joints {', '.join(missing)}")
+    index = locomotion_joints(clip)
     drop = has_tpose_frame(clip) if drop_tpose == "auto" else bool(drop_tpose)
     if drop:
         clip.motion = clip.motion[1:]
     if clip.n_frames < 2:
         raise ValueError(f"{path}: needs at least 2 frames of motion, has {clip.n_frames}")
-    index = [clip.joint_names.index(n) for n in LOCOMOTION_FROM_CMU]
     positions = clip.world_positions()[:, index] * unit_m
     result = Clip(path.stem, positions, clip.fps, str(path))
     return result.resampled(fps) if fps is not None else result
@@ -119,17 +144,23 @@ def load(source: str | Path | Iterable[str | Path] = "synthetic", fps: float = 2
       its subject's ``.asf``, as :func:`download_cmu` leaves them); one trial must not be
       there in both formats.
 
-    Files come back sorted by name, resampled to ``fps``. Either way the result is world
-    positions, and everything after this goes through the same code.
+    Files come back sorted by name, resampled to ``fps``; file extensions may be in any
+    letter case (``.BVH``). Either way the result is world positions, and everything after
+    this goes through the same code. Bad arguments and malformed files raise ``ValueError``
+    naming the argument or the file (and line).
     """
+    fps = checks.rate(fps, "fps")
     if isinstance(source, str) and source == "synthetic":
         from . import synthetic
+        n_clips = checks.whole(n_clips, "n_clips")
+        duration_s = checks.seconds(duration_s, "duration_s")
+        seed = checks.whole(seed, "seed", minimum=0)
         return [Clip(name, motion.positions, fps, "synthetic")
                 for name, motion in synthetic.dataset(n_clips, duration_s, fps, seed)]
     if isinstance(source, (str, Path)):
         path = Path(source)
         if path.is_dir():
-            files = sorted([*path.glob("*.bvh"), *path.glob("*.amc")])
+            files = sorted(f for f in path.iterdir() if f.suffix.lower() in MOTION_SUFFIXES and f.is_file())
             if not files:
                 raise ValueError(f"{path}: no .bvh or .amc files")
         elif path.is_file():
@@ -172,7 +203,7 @@ def split_clips(clips: Sequence[Clip], fractions: tuple[float, float, float] = (
     take out of both training and evaluation.
     """
     fractions = tuple(float(f) for f in fractions)
-    if len(fractions) != 3 or min(fractions) < 0 or abs(sum(fractions) - 1) > 1e-6:
+    if len(fractions) != 3 or not all(0 <= f <= 1 for f in fractions) or abs(sum(fractions) - 1) > 1e-6:
         raise ValueError(f"fractions: expected three non-negative numbers summing to 1, got {fractions}")
     n = len(clips)
     order = np.random.default_rng(seed).permutation(n)
@@ -193,10 +224,11 @@ def cut_windows(features: np.ndarray, length: int, stride: int) -> np.ndarray:
     """Cut ``(frames, D)`` into overlapping windows ``(n, length, D)``.
 
     Windows start every ``stride`` frames; a tail shorter than ``length`` is left out. A
-    clip shorter than ``length`` gives ``(0, length, D)``.
+    clip shorter than ``length`` gives ``(0, length, D)``. ``length`` and ``stride`` must
+    be whole numbers >= 1.
     """
-    if length < 1 or stride < 1:
-        raise ValueError(f"length and stride must be >= 1, got length={length}, stride={stride}")
+    length = checks.whole(length, "length")
+    stride = checks.whole(stride, "stride")
     features = np.asarray(features)
     if features.shape[0] < length:
         return np.zeros((0, length) + features.shape[1:], dtype=features.dtype)
@@ -209,6 +241,7 @@ def augment(features: np.ndarray, fps: float, kinds: Sequence[str] = ("mirror", 
 
     Returns ``[original, ...]``: 2 copies for one kind, 4 for ``("mirror", "reverse")``.
     """
+    fps = checks.rate(fps, "fps")
     unknown = set(kinds) - {"mirror", "reverse"}
     if unknown:
         raise ValueError(f"augment: unknown kinds {sorted(unknown)}; use 'mirror' and/or 'reverse'")
@@ -347,6 +380,15 @@ def _describe_sources(clips: Sequence[Clip]) -> str:
     return folders.pop() if len(folders) == 1 else "clips"
 
 
+def _whole_frames(seconds: float, fps: float, name: str) -> int:
+    """``seconds`` as a whole number of frames at ``fps``; ``ValueError`` naming ``name``
+    when that is less than one frame."""
+    frames = int(round(seconds * fps))
+    if frames < 1:
+        raise ValueError(f"{name}: {seconds:g} s is less than one frame at {fps:g} fps")
+    return frames
+
+
 def prepare(clips: Sequence[Clip], window_s: float = 4.0, stride_s: float | None = None,
             fractions: tuple[float, float, float] = (0.8, 0.1, 0.1),
             augment_with: Sequence[str] = ("mirror", "reverse"), seed: int = 0,
@@ -362,8 +404,13 @@ def prepare(clips: Sequence[Clip], window_s: float = 4.0, stride_s: float | None
     §II, MoGlow), ``"shared_pose"`` gives all 63 pose coordinates one common std (Holden).
     A clip shorter than one window is dropped and listed in
     ``description["dropped_short"]`` (``short_clips="drop"``) or raises ``ValueError``
-    (``short_clips="error"``).
+    (``short_clips="error"``); so does a ``window_s`` longer than every clip, naming the
+    longest. ``window_s`` and ``stride_s`` must be finite, positive and at least one frame.
     """
+    window_s = checks.seconds(window_s, "window_s")
+    if stride_s is not None:
+        stride_s = checks.seconds(stride_s, "stride_s")
+    seed = checks.whole(seed, "seed", minimum=0)
     if not clips:
         raise ValueError("clips: no clips to prepare")
     if normalization not in ("per_feature", "shared_pose"):
@@ -374,15 +421,19 @@ def prepare(clips: Sequence[Clip], window_s: float = 4.0, stride_s: float | None
     if len(fps_values) != 1:
         raise ValueError(f"clips: all clips need one frame rate, got {sorted(fps_values)}; "
                          "resample them first (Clip.resampled)")
-    fps = fps_values.pop()
-    length = int(round(window_s * fps))
-    stride = int(round((stride_s if stride_s is not None else window_s / 2) * fps))
+    fps = checks.rate(fps_values.pop(), "the clips' fps")
+    length = _whole_frames(window_s, fps, "window_s")
+    stride = (_whole_frames(stride_s, fps, "stride_s") if stride_s is not None
+              else max(1, int(round(window_s / 2 * fps))))
     short = [c.name for c in clips if c.n_frames < length]
     if short and short_clips == "error":
         raise ValueError(f"clips shorter than a {length}-frame window: {', '.join(short)}")
     usable = [c for c in clips if c.n_frames >= length]
     if not usable:
-        raise ValueError(f"clips: none is as long as one {length}-frame window")
+        longest = max(clips, key=lambda c: c.n_frames)
+        raise ValueError(f"window_s: a window of {window_s:g} s ({length} frames at {fps:g} fps) "
+                         f"is longer than every clip; the longest, {longest.name}, has "
+                         f"{longest.n_frames} frames ({longest.duration_s:.3g} s). Use a shorter window_s")
     splits = split_clips(usable, fractions, seed)
 
     windows = {}

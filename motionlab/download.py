@@ -13,11 +13,35 @@ or from a shell::
 
     python -m motionlab.download 16_15 16_35 --dest data/cache/cmu
 
-Only the standard library talks to the network (``urllib``). Each file is written to
-``<name>.part`` and renamed when complete, so an interrupted download resumes where it
-stopped (an HTTP ``Range`` request) and a complete file is never fetched again. A file is
-accepted only if it has the announced size and looks like an ASF or AMC file (not, say, an
-HTML error page).
+Only the standard library talks to the network (``urllib``). What makes a download
+complete and correct:
+
+* **The reader is the validator.** Every file is parsed in full with
+  :func:`motionlab.asfamc.read_asf` / :func:`~motionlab.asfamc.read_amc` (the AMC against
+  its subject's ASF, which is fetched first), and every AMC frame must give the root and
+  every bone with dofs, and the file must end with a line break. A file that does not
+  pass is deleted and the error names the trial and the reason. This is also what catches
+  a body cut short when the server announced no length: a transfer that breaks off
+  mid-frame leaves an incomplete frame or line. (One cut exactly at a frame boundary
+  would look like a shorter, complete trial; servers announce the length of these static
+  files, and then the size is checked too.)
+* **Safe resuming.** Each file is written to ``<name>.part``, with ``<name>.part.json``
+  beside it recording where the bytes came from: the URL and the server's ``ETag``,
+  ``Last-Modified`` and size. An interrupted download resumes with an HTTP ``Range``
+  request (and ``If-Range``, so a file that changed on the server comes whole), and the
+  answer must continue exactly at the part's end of the same file (``206`` with a matching
+  ``Content-Range``, size and ``ETag``). A ``.part`` without that record, or recorded for
+  another URL, is never spliced into: the download starts over.
+* **A manifest.** ``manifest.json`` in the folder lists each file's URL, size, SHA-256
+  and when it was recorded. On a later run, a file in the folder is checked against it; a
+  file whose size or SHA-256 changed (damaged, or edited by hand) is reported with a
+  :class:`DownloadWarning` and fetched again. A file in the folder but not in the manifest
+  (copied in by hand, or left by an older version) is parsed as above: kept and added to
+  the manifest if it passes, reported and fetched again if not.
+
+Expected failures (no network, an HTTP error, an unknown trial, a file that is not a
+valid ASF/AMC) raise :class:`DownloadError`, a ``ValueError``, with a message naming the
+trial and the URL.
 
 Licence: "The data used in this project was obtained from mocap.cs.cmu.edu. The database
 was created with funding from NSF EIA-0196217." Free for research and commercial use; not
@@ -26,21 +50,28 @@ to be resold as a data set.
 from __future__ import annotations
 
 import argparse
+import hashlib
+import json
 import numbers
 import os
 import re
 import sys
 import urllib.error
 import urllib.request
+import warnings
+from datetime import datetime, timezone
 from http.client import HTTPException
 from pathlib import Path
-from typing import Callable, Iterable
+from typing import Callable, Iterable, Iterator
 from urllib.parse import urlsplit
 
 from tqdm.auto import tqdm
 
+from . import asfamc
+
 DEFAULT_BASE = "http://mocap.cs.cmu.edu"
 DEFAULT_DEST = "data/cache/cmu"
+MANIFEST = "manifest.json"
 CHUNK_BYTES = 64 * 1024
 USER_AGENT = "motionlab (course library; python urllib)"
 
@@ -64,7 +95,13 @@ DEFAULT_TRIALS = (
 
 
 class DownloadError(ValueError):
-    """A file could not be fetched: no network, an HTTP error, or a broken-off transfer."""
+    """A file could not be fetched: no network, an HTTP error, a broken-off transfer, or
+    the server sent something that is not a valid ASF/AMC file."""
+
+
+class DownloadWarning(UserWarning):
+    """A file in the destination folder changed since it was recorded, or does not parse,
+    and is fetched again."""
 
 
 # --------------------------------------------------------------------------- names and URLs
@@ -106,13 +143,14 @@ def _first_line(head: bytes) -> str:
 
 def looks_like_amc(head: bytes) -> bool:
     """Whether a file starting with ``head`` is an AMC: a keyword such as ``:FULLY-SPECIFIED``
-    or a frame number first."""
+    or a frame number first. A quick first look; :func:`check_amc` is the real check."""
     line = _first_line(head)
     return line.upper().startswith((":FULLY-SPECIFIED", ":DEGREES", ":RADIANS")) or line.isdigit()
 
 
 def looks_like_asf(head: bytes) -> bool:
-    """Whether a file starting with ``head`` is an ASF: a section keyword (``:version``) first."""
+    """Whether a file starting with ``head`` is an ASF: a section keyword (``:version``) first.
+    A quick first look; :func:`check_asf` is the real check."""
     return _first_line(head).startswith(":")
 
 
@@ -123,7 +161,160 @@ def _describe(head: bytes) -> str:
     return f"something else, starting {text[:40]!r}"
 
 
-# --------------------------------------------------------------------------- one file
+def _check_last_line(path: Path) -> None:
+    """CMU's files end with a line break; a transfer cut short mid-line does not."""
+    with open(path, "rb") as f:
+        f.seek(0, os.SEEK_END)
+        if f.tell() == 0:
+            raise ValueError(f"{path}: the file is empty")
+        f.seek(-1, os.SEEK_END)
+        if f.read(1) != b"\n":
+            raise ValueError(f"{path}: the last line has no line break: the file was cut short")
+
+
+def _read_strictly(read: Callable, *args) -> tuple[object, list[str]]:
+    """Call a reader; returns what it read and the warnings it gave (a reader that copes
+    with a flaw, say by dropping an incomplete last frame, warns; a download must have none)."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        result = read(*args)
+    complaints = []
+    for warning in caught:
+        if issubclass(warning.category, UserWarning):
+            complaints.append(str(warning.message))
+        else:                                             # not about the file: pass it on
+            warnings.warn_explicit(warning.message, warning.category, warning.filename, warning.lineno)
+    return result, complaints
+
+
+def check_asf(path: str | Path) -> asfamc.ASF:
+    """Parse a skeleton file in full (:func:`motionlab.asfamc.read_asf`); returns it.
+    Raises ``ValueError`` naming the file (and line) if it is not a complete ASF, or if
+    the reader warned about it."""
+    _check_last_line(Path(path))
+    asf, complaints = _read_strictly(asfamc.read_asf, path)
+    if complaints:
+        raise ValueError(complaints[0])
+    return asf
+
+
+def check_amc(path: str | Path, asf: asfamc.ASF | str | Path) -> asfamc.AMC:
+    """Parse a motion file in full against its skeleton (an :class:`~motionlab.asfamc.ASF`
+    or the path of one); returns it.
+
+    :func:`motionlab.asfamc.read_amc` checks every line and that frame numbers are
+    contiguous; on top of that every frame must give the root and every bone with dofs
+    (what ``:FULLY-SPECIFIED`` promises, and what a frame cut short lacks), and the reader
+    must not have warned. Raises ``ValueError`` naming the file (and line) otherwise.
+    """
+    path = Path(path)
+    if not isinstance(asf, asfamc.ASF):
+        asf = check_asf(asf)
+    _check_last_line(path)
+    amc, complaints = _read_strictly(asfamc.read_amc, path, asf)
+    _check_frames_complete(path, asf)
+    if complaints:
+        raise ValueError(complaints[0])
+    return amc
+
+
+def _bones_per_frame(path: Path) -> list[tuple[str, int, set[str]]]:
+    """``(frame number, its line number, the bones it gives)`` for each frame of an AMC."""
+    frames: list[tuple[str, int, set[str]]] = []
+    with open(path, encoding="utf-8", errors="replace") as f:
+        for n, line in enumerate(f, start=1):
+            words = line.split()
+            if not words or words[0].startswith(("#", ":")):
+                continue
+            if len(words) == 1 and words[0].isdigit():          # a new frame
+                frames.append((words[0], n, set()))
+            elif frames:
+                frames[-1][2].add(words[0])
+    return frames
+
+
+def _check_frames_complete(path: Path, asf: asfamc.ASF) -> None:
+    """Every frame of the AMC at ``path`` gives the root and every bone with dofs."""
+    needed = {"root"} | {bone.name for bone in asf.bones if bone.dof}
+    frames = _bones_per_frame(path)
+    if not frames:
+        raise ValueError(f"{path}: no frames")
+    for number, line, given in frames:
+        missing = sorted(needed - given)
+        if missing:
+            shown = ", ".join(missing[:3]) + (", ..." if len(missing) > 3 else "")
+            raise ValueError(f"{path}:{line}: frame {number} lacks {len(missing)} of {len(needed)} "
+                             f"bones ({shown}): an incomplete frame")
+
+
+# --------------------------------------------------------------------------- the manifest
+
+def sha256_of(path: str | Path) -> str:
+    """The SHA-256 of a file, as hex."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as f:
+        while block := f.read(1 << 20):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def read_manifest(folder: str | Path) -> dict[str, dict]:
+    """``<folder>/manifest.json``: file name -> ``{"url", "size", "sha256", "recorded",
+    "origin"}``; empty if there is none (or it is unreadable: then every file gets parsed)."""
+    path = Path(folder) / MANIFEST
+    if not path.is_file():
+        return {}
+    try:
+        manifest = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as err:
+        warnings.warn(f"{path}: unreadable ({err}); the files are checked by parsing them",
+                      DownloadWarning, stacklevel=2)
+        return {}
+    return manifest if isinstance(manifest, dict) else {}
+
+
+def _record(path: Path, url: str, origin: str) -> None:
+    """Add (or replace) ``path``'s entry in its folder's manifest."""
+    manifest = read_manifest(path.parent)
+    manifest[path.name] = {"url": url, "size": path.stat().st_size, "sha256": sha256_of(path),
+                           "recorded": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+                           "origin": origin}
+    _write_json(path.parent / MANIFEST, manifest)
+
+
+def _write_json(path: Path, value: dict) -> None:
+    """Write ``value`` to ``path`` at once (through a temporary file), never half."""
+    temporary = path.with_name(path.name + ".tmp")
+    temporary.write_text(json.dumps(value, indent=1, sort_keys=True) + "\n", encoding="utf-8")
+    os.replace(temporary, path)
+
+
+def _problem_with(target: Path, url: str, kind: str,
+                  validate: Callable[[Path], object] | None) -> str | None:
+    """Why the file already at ``target`` cannot be trusted, or ``None`` if it can.
+
+    A file in the manifest must still have its recorded size and SHA-256. A file not in it
+    must parse (``validate``); it is then added to the manifest.
+    """
+    entry = read_manifest(target.parent).get(target.name)
+    if isinstance(entry, dict) and "sha256" in entry:
+        size = target.stat().st_size
+        if size != entry.get("size"):
+            return (f"its size changed since it was recorded in {MANIFEST} "
+                    f"({size} bytes, not {entry.get('size')})")
+        if sha256_of(target) != entry["sha256"]:
+            return f"its content changed since it was recorded in {MANIFEST} (another SHA-256)"
+        return None
+    try:
+        if validate is not None:
+            validate(target)
+    except ValueError as err:
+        return f"it is not in {MANIFEST} and is not a valid {kind} file ({err})"
+    _record(target, url, "found in the folder, parsed")
+    return None
+
+
+# --------------------------------------------------------------------------- HTTP
 
 def _offline(url: str, reason: object) -> DownloadError:
     host = urlsplit(url).netloc or url
@@ -133,25 +324,26 @@ def _offline(url: str, reason: object) -> DownloadError:
         "so a mirror can be given with base_url= (--base-url on the command line).")
 
 
-def _open(url: str, offset: int, timeout: float):
-    """Open ``url``, asking for the bytes from ``offset`` on when it is not 0.
+def _not_found(url: str, kind: str) -> DownloadError:
+    hint = ("is that trial in the CMU database?" if kind == "AMC" else
+            f"the trial needs this skeleton, {url.rsplit('/', 1)[-1]}; is the subject in the "
+            "CMU database?")
+    return DownloadError(f"{url}: not found on the server (HTTP 404); {hint}")
 
-    Returns the response, or ``None`` when the server says that range does not exist
-    (HTTP 416: the part on disk is not a prefix of the file).
-    """
-    headers = {"User-Agent": USER_AGENT}
-    if offset:
-        headers["Range"] = f"bytes={offset}-"
+
+def _open(url: str, kind: str, timeout: float, headers: dict[str, str] | None = None):
+    """Open ``url`` with extra request ``headers``. Returns the response, or ``None`` when
+    the server answers that a requested range does not exist (HTTP 416)."""
+    headers = {"User-Agent": USER_AGENT, **(headers or {})}
     try:
         return urllib.request.urlopen(urllib.request.Request(url, headers=headers), timeout=timeout)
     except urllib.error.HTTPError as err:
-        if err.code == 416 and offset:
+        if err.code == 416 and "Range" in headers:
             return None
         if err.code == 404:
-            raise DownloadError(f"{url}: not found on the server (HTTP 404); "
-                                "is that trial in the CMU database?") from None
+            raise _not_found(url, kind) from None
         raise DownloadError(f"{url}: the server answered HTTP {err.code} {err.reason}") from None
-    except (urllib.error.URLError, TimeoutError, ConnectionError, HTTPException) as err:
+    except (urllib.error.URLError, OSError, HTTPException) as err:
         raise _offline(url, getattr(err, "reason", err)) from None
 
 
@@ -164,59 +356,169 @@ def _total_size(response, offset: int) -> int | None:
     return offset + int(length) if length and length.strip().isdigit() else None
 
 
-def _download_part(url: str, part: Path, timeout: float, progress: bool) -> None:
-    """Bring ``part`` up to the whole of ``url``: resume it with a ``Range`` request if it
-    exists, start over if the server cannot or will not resume; check the announced size."""
+def _chunks(response, url: str) -> Iterator[bytes]:
+    """The response body in chunks; a connection lost on the way is a :class:`DownloadError`."""
+    while True:
+        try:
+            chunk = response.read(CHUNK_BYTES)
+        except (OSError, HTTPException) as err:
+            raise DownloadError(f"{url}: the transfer broke off ({err}); "
+                                "run again to resume it") from None
+        if not chunk:
+            return
+        yield chunk
+
+
+# --------------------------------------------------------------------------- resuming a .part
+
+def _part_files(target: Path) -> tuple[Path, Path]:
+    """``<target>.part`` (the bytes so far) and ``<target>.part.json`` (where they came from)."""
+    return target.with_name(target.name + ".part"), target.with_name(target.name + ".part.json")
+
+
+def _discard(*paths: Path) -> None:
+    for path in paths:
+        path.unlink(missing_ok=True)
+
+
+def _identity(url: str, response, offset: int) -> dict:
+    """What identifies the file a response sends: URL, ``ETag``, ``Last-Modified``, size."""
+    return {"url": url, "etag": response.headers.get("ETag"),
+            "last_modified": response.headers.get("Last-Modified"),
+            "size": _total_size(response, offset)}
+
+
+def _read_identity(sidecar: Path) -> dict | None:
+    try:
+        identity = json.loads(sidecar.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    return identity if isinstance(identity, dict) else None
+
+
+def _strong_etag(identity: dict) -> str | None:
+    etag = identity.get("etag")
+    return etag if etag and not etag.startswith("W/") else None     # weak ETags cannot resume
+
+
+def _can_resume(identity: dict | None, url: str) -> bool:
+    """A part can be resumed only if it is recorded as coming from ``url``, with something
+    to tell that the file on the server is still the same (``ETag``, date or size)."""
+    return (identity is not None and identity.get("url") == url
+            and bool(_strong_etag(identity) or identity.get("last_modified") or identity.get("size")))
+
+
+def _range_headers(offset: int, identity: dict) -> dict[str, str]:
+    """``Range`` from ``offset`` on, and ``If-Range``: "only if the file is still the one
+    I have the start of; else send it whole"."""
+    headers = {"Range": f"bytes={offset}-"}
+    validator = _strong_etag(identity) or identity.get("last_modified")
+    if validator:
+        headers["If-Range"] = validator
+    return headers
+
+
+def _continues(response, offset: int, identity: dict) -> bool:
+    """Whether a response is exactly the rest of the recorded file from ``offset`` on:
+    ``206`` whose ``Content-Range`` starts at ``offset`` and runs to the end of a file of
+    the recorded size, with the recorded ``ETag`` and ``Last-Modified`` (where given)."""
+    match = re.fullmatch(r"bytes (\d+)-(\d+)/(\d+)", response.headers.get("Content-Range", "").strip())
+    if response.status != 206 or not match:
+        return False
+    start, end, total = (int(x) for x in match.groups())
+    same = [(identity.get(key), response.headers.get(header))
+            for key, header in (("etag", "ETag"), ("last_modified", "Last-Modified"))]
+    return (start == offset and end == total - 1 and identity.get("size") in (None, total)
+            and all(ours is None or theirs is None or ours == theirs for ours, theirs in same))
+
+
+def _open_rest(url: str, part: Path, sidecar: Path, kind: str, timeout: float):
+    """Open ``url`` for what ``part`` still lacks: returns ``(offset, response)``, where
+    ``offset`` is how many bytes of ``part`` to keep (0: start over, ``part`` is gone)."""
+    identity = _read_identity(sidecar)
     offset = part.stat().st_size if part.is_file() else 0
-    response = _open(url, offset, timeout)
-    if response is None:                                  # the part is not a prefix: start over
-        part.unlink()
-        offset, response = 0, _open(url, 0, timeout)
+    if offset and _can_resume(identity, url):
+        response = _open(url, kind, timeout, _range_headers(offset, identity))
+        if response is not None and _continues(response, offset, identity):
+            return offset, response
+        if response is not None and response.status == 200:      # the whole file after all
+            _discard(part, sidecar)
+            return 0, response
+        if response is not None:
+            response.close()
+    _discard(part, sidecar)              # nothing to resume, or not safely: start over
+    return 0, _open(url, kind, timeout)
+
+
+def _download_part(url: str, part: Path, sidecar: Path, kind: str, timeout: float,
+                   progress: bool) -> None:
+    """Bring ``part`` up to the whole of ``url``, resuming it where that is safe (see
+    :func:`_open_rest`); the received size must be the announced one."""
+    offset, response = _open_rest(url, part, sidecar, kind, timeout)
     with response:
-        if offset and response.status != 206:
-            offset = 0                                     # Range ignored, whole file: restart
-        elif offset and not response.headers.get("Content-Range", "").startswith(f"bytes {offset}-"):
-            part.unlink()
-            raise DownloadError(f"{url}: the server sent another range than bytes {offset}- "
-                                f"({response.headers.get('Content-Range')}); run again to start over")
+        if offset == 0:                                  # record where the bytes come from
+            _write_json(sidecar, _identity(url, response, 0))
         total = _total_size(response, offset)
         with open(part, "ab" if offset else "wb") as out, \
                 tqdm(total=total, initial=offset, unit="B", unit_scale=True, unit_divisor=1024,
                      desc=part.name.removesuffix(".part"), disable=not progress, leave=False) as bar:
-            try:
-                while chunk := response.read(CHUNK_BYTES):
-                    out.write(chunk)
-                    bar.update(len(chunk))
-            except (TimeoutError, ConnectionError, HTTPException) as err:
-                raise DownloadError(f"{url}: the transfer broke off ({err}); run again to "
-                                    "resume it") from None
+            for chunk in _chunks(response, url):
+                out.write(chunk)
+                bar.update(len(chunk))
     size = part.stat().st_size
     if total is not None and size != total:
-        raise DownloadError(f"{url}: received {size} of {total} bytes; run again to resume")
+        raise DownloadError(f"{url}: received {size} of {total} bytes (the connection was "
+                            "closed early); run again to resume")
 
+
+# --------------------------------------------------------------------------- one file
 
 def fetch(url: str, target: str | Path, looks_right: Callable[[bytes], bool], kind: str,
-          timeout: float = 30.0, progress: bool = True) -> bool:
-    """Download ``url`` to ``target`` unless ``target`` exists; returns whether it downloaded.
+          timeout: float = 30.0, progress: bool = True,
+          validate: Callable[[Path], object] | None = None) -> bool:
+    """Make ``target`` a checked copy of ``url``; returns whether it downloaded.
 
-    Writes ``<target>.part`` first and resumes it with a ``Range`` request (a server that
-    ignores ``Range`` sends the whole file, which then replaces the part). The file must
-    have the size the server announced and its start must pass ``looks_right`` (else the
-    part is deleted); ``kind`` names it in messages. Raises :class:`DownloadError` (a
-    ``ValueError``) naming ``url``.
+    A file already at ``target`` is kept if it matches the folder's manifest (or, if not
+    in it, passes ``validate``); otherwise a :class:`DownloadWarning` says why and it is
+    fetched again. A download goes to ``<target>.part`` (resumed where safe), must have the
+    announced size, start like the file should (``looks_right``) and pass ``validate``
+    (a parse that raises ``ValueError``), else it is deleted. It is then renamed to
+    ``target`` and recorded in the manifest. ``kind`` (``"ASF"``, ``"AMC"``) names it in
+    messages. Raises :class:`DownloadError` (a ``ValueError``) naming ``url``.
     """
     target = Path(target)
     if target.is_file():
-        return False
-    part = target.with_name(target.name + ".part")
-    _download_part(url, part, timeout, progress)
+        problem = _problem_with(target, url, kind, validate)
+        if problem is None:
+            return False
+        warnings.warn(f"{target}: {problem}; fetching it again", DownloadWarning, stacklevel=2)
+        target.unlink()
+    part, sidecar = _part_files(target)
+    _download_part(url, part, sidecar, kind, timeout, progress)
+    _check_download(url, part, sidecar, looks_right, kind, validate)
+    os.replace(part, target)
+    _discard(sidecar)
+    _record(target, url, "downloaded")
+    return True
+
+
+def _check_download(url: str, part: Path, sidecar: Path, looks_right: Callable[[bytes], bool],
+                    kind: str, validate: Callable[[Path], object] | None) -> None:
+    """Delete a downloaded ``part`` (and its record) that is not a valid ``kind`` file."""
     with open(part, "rb") as f:
         head = f.read(4096)
-    if not looks_right(head):
-        part.unlink()
-        raise DownloadError(f"{url}: expected a CMU {kind} file, the server sent {_describe(head)}")
-    os.replace(part, target)
-    return True
+    try:
+        if not looks_right(head):
+            raise DownloadError(f"{url}: expected a CMU {kind} file, the server sent {_describe(head)}")
+        if validate is not None:
+            try:
+                validate(part)
+            except ValueError as err:
+                raise DownloadError(f"{url}: not a complete, valid {kind} file, so it was not "
+                                    f"kept: {err}") from None
+    except DownloadError:
+        _discard(part, sidecar)
+        raise
 
 
 # --------------------------------------------------------------------------- many trials
@@ -229,26 +531,45 @@ def download_cmu(trials: Iterable[str | tuple[int, int]] | None = None,
     Args:
         trials: names like ``"16_15"`` or pairs like ``(16, 15)``; default
             :data:`DEFAULT_TRIALS`.
-        dest: the folder, created if needed; it gets ``<SS>_<TT>.amc`` and ``<SS>.asf``.
+        dest: the folder, created if needed; it gets ``<SS>_<TT>.amc``, ``<SS>.asf`` and
+            ``manifest.json`` (each file's URL, size and SHA-256).
         base_url: the site (or a mirror with the same ``/subjects/<SS>/`` layout).
         progress: show a progress bar (bytes) per file.
         timeout: seconds to wait for the server before giving up.
 
-    Files already in ``dest`` are not fetched again; a ``.part`` left by an interrupted run
-    is resumed. Raises ``ValueError`` for a bad trial name, and :class:`DownloadError` (a
-    ``ValueError``) naming the URL when the site cannot be reached, answers with an error
-    or sends something that is not an ASF/AMC file.
+    Each trial's skeleton is fetched first, then the trial, and each is parsed in full
+    before it is kept (see the module's docstring). Files already in ``dest`` are checked
+    against the manifest, not fetched again; one that changed is reported (a
+    :class:`DownloadWarning`) and fetched again. A ``.part`` left by an interrupted run is
+    resumed when that is safe. Raises ``ValueError`` for a bad trial name, and
+    :class:`DownloadError` (a ``ValueError``) naming the trial and the URL when the site
+    cannot be reached, answers with an error or sends something that is not a valid
+    ASF/AMC file.
     """
     names = [trial_name(t) for t in (DEFAULT_TRIALS if trials is None else trials)]
     dest = Path(dest)
     dest.mkdir(parents=True, exist_ok=True)
     paths = []
     for name in dict.fromkeys(names):                     # each trial once, in order
-        amc_url, asf_url = trial_urls(name, base_url)
-        fetch(asf_url, dest / asf_url.rsplit("/", 1)[1], looks_like_asf, "ASF", timeout, progress)
-        fetch(amc_url, dest / f"{name}.amc", looks_like_amc, "AMC", timeout, progress)
-        paths.append(dest / f"{name}.amc")
+        try:
+            paths.append(_fetch_trial(name, dest, base_url, progress, timeout))
+        except DownloadError as err:
+            raise DownloadError(f"trial {name}: {err}") from None
     return paths
+
+
+def _fetch_trial(name: str, dest: Path, base_url: str, progress: bool, timeout: float) -> Path:
+    """One trial: its subject's skeleton first (the AMC is parsed against it), then its motion."""
+    amc_url, asf_url = trial_urls(name, base_url)
+    asf_path, amc_path = dest / asf_url.rsplit("/", 1)[1], dest / f"{name}.amc"
+    fetch(asf_url, asf_path, looks_like_asf, "ASF", timeout, progress, validate=check_asf)
+    fetch(amc_url, amc_path, looks_like_amc, "AMC", timeout, progress,
+          validate=lambda path: check_amc(path, asf_path))
+    return amc_path
+
+
+def _print_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    print(f"warning: {message}", file=sys.stderr)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -264,7 +585,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
     args = parser.parse_args(argv)
     try:
-        paths = download_cmu(args.trials or None, args.dest, args.base_url, progress=not args.quiet)
+        with warnings.catch_warnings():
+            warnings.showwarning = _print_warning          # "warning: ...", no source line
+            paths = download_cmu(args.trials or None, args.dest, args.base_url, progress=not args.quiet)
     except ValueError as err:
         print(f"error: {err}", file=sys.stderr)
         return 1

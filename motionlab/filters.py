@@ -5,7 +5,21 @@ trend past the ends, so a steadily moving root is not dragged back at the clip e
 """
 from __future__ import annotations
 
+
 import numpy as np
+
+from . import checks
+
+MAX_SIGMA_FRAMES = 1e6
+"""Widest Gaussian accepted, in frames (its kernel alone takes 64 MB)."""
+
+
+def _signal(x) -> np.ndarray:
+    """``x`` as a float64 array ``(frames, ...)``: at least one frame, no NaN."""
+    x = checks.array(x, "x")
+    if x.ndim == 0:
+        raise ValueError("x: expected an array (frames, ...), got a single number")
+    return x
 
 
 def _convolve_time(x: np.ndarray, kernel: np.ndarray) -> np.ndarray:
@@ -27,15 +41,16 @@ def _convolve_time(x: np.ndarray, kernel: np.ndarray) -> np.ndarray:
 
 
 def gaussian_smooth(x: np.ndarray, sigma_frames: float) -> np.ndarray:
-    """Smooth ``x`` ``(frames, ...)`` along time with a Gaussian of ``sigma_frames`` frames."""
-    if sigma_frames < 0:
-        raise ValueError(f"sigma_frames must be >= 0, got {sigma_frames}")
+    """Smooth ``x`` ``(frames, ...)`` along time with a Gaussian of ``sigma_frames`` frames
+    (0: no smoothing, a copy of ``x``)."""
+    x = _signal(x)
+    checks.non_negative(sigma_frames, "sigma_frames", MAX_SIGMA_FRAMES)
     if sigma_frames == 0:
         return np.array(x, dtype=np.float64)
     half = max(1, int(np.ceil(4 * sigma_frames)))
     t = np.arange(-half, half + 1)
     kernel = np.exp(-0.5 * (t / sigma_frames) ** 2)
-    return _convolve_time(np.asarray(x, dtype=np.float64), kernel / kernel.sum())
+    return _convolve_time(x, kernel / kernel.sum())
 
 
 def lowpass(x: np.ndarray, cutoff_hz: float, fps: float) -> np.ndarray:
@@ -44,14 +59,15 @@ def lowpass(x: np.ndarray, cutoff_hz: float, fps: float) -> np.ndarray:
     A Hann-windowed sinc FIR filter spanning four periods of the cutoff on each side,
     normalised to unit gain at 0 Hz (zero phase: it does not delay the motion).
     """
-    if not 0 < cutoff_hz:
-        raise ValueError(f"cutoff_hz must be > 0, got {cutoff_hz}")
+    x = _signal(x)
+    fps = checks.rate(fps, "fps")
+    cutoff_hz = checks.positive(cutoff_hz, "cutoff_hz")
     if cutoff_hz >= fps / 2:
         return np.array(x, dtype=np.float64)
     half = int(np.ceil(4 * fps / cutoff_hz))
     t = np.arange(-half, half + 1)
     kernel = np.sinc(2 * cutoff_hz / fps * t) * np.hanning(2 * half + 3)[1:-1]
-    return _convolve_time(np.asarray(x, dtype=np.float64), kernel / kernel.sum())
+    return _convolve_time(x, kernel / kernel.sum())
 
 
 def resample(x: np.ndarray, fps_in: float, fps_out: float) -> np.ndarray:
@@ -62,9 +78,9 @@ def resample(x: np.ndarray, fps_in: float, fps_out: float) -> np.ndarray:
     by linear interpolation, from the first frame up to the last. With an integer ratio
     (120 -> 20 fps) the samples fall exactly on original frames.
     """
-    if fps_in <= 0 or fps_out <= 0:
-        raise ValueError(f"fps must be > 0, got fps_in={fps_in}, fps_out={fps_out}")
-    x = np.asarray(x, dtype=np.float64)
+    x = _signal(x)
+    fps_in = checks.rate(fps_in, "fps_in")
+    fps_out = checks.rate(fps_out, "fps_out")
     if fps_out < fps_in:
         x = lowpass(x, 0.45 * fps_out, fps_in)
     if fps_out == fps_in:

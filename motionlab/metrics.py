@@ -8,16 +8,31 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import checks
 from .filters import gaussian_smooth
-from .representation import N_POSE, POSE, to_positions
+from .representation import N_FEATURES, N_POSE, POSE, to_positions
 from .skeleton import FEET, LOCOMOTION, Skeleton
 
 
-def _check_same(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    a, b = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
-    if a.shape != b.shape or a.shape[-1] != 3:
-        raise ValueError(f"expected two (..., joints, 3) arrays of one shape, got {a.shape} and {b.shape}")
-    return a, b
+def _same_shape(a: np.ndarray, b: np.ndarray, names: str, shape_text: str) -> None:
+    if a.shape != b.shape:
+        raise ValueError(f"{names}: expected two {shape_text} arrays of one shape, got {a.shape} and {b.shape}")
+
+
+def _joint_indices(joints, n_joints: int, name: str = "joints") -> list[int]:
+    """``joints`` as a non-empty list of joint indices, each from 0 to ``n_joints - 1``."""
+    if not np.iterable(joints) or isinstance(joints, str) or len(joints) == 0:
+        raise ValueError(f"{name}: expected a list of joint indices, got {joints!r}")
+    indices = [checks.whole(j, name, minimum=0) for j in joints]
+    if max(indices) >= n_joints:
+        raise ValueError(f"{name}: joint index {max(indices)} out of range (0..{n_joints - 1})")
+    return indices
+
+
+def _features(value, name: str) -> np.ndarray:
+    """Features ``(..., 66)`` or just the pose ``(..., 63)``, any dtype, checked."""
+    last = N_POSE if np.shape(value)[-1:] == (N_POSE,) else N_FEATURES
+    return checks.array(value, name, (..., last), dtype=None)
 
 
 def pose_error(pred_features: np.ndarray, true_features: np.ndarray,
@@ -28,14 +43,12 @@ def pose_error(pred_features: np.ndarray, true_features: np.ndarray,
     rotation of the character are ignored, only the body pose counts. ``joints``: average
     over these joint indices only (default: all).
     """
-    p = np.asarray(pred_features)[..., POSE]
-    t = np.asarray(true_features)[..., POSE]
-    if p.shape != t.shape or p.shape[-1] != N_POSE:
-        raise ValueError(f"expected features (..., {N_POSE}+), got {np.shape(pred_features)} "
-                         f"and {np.shape(true_features)}")
+    p = _features(pred_features, "pred_features")[..., POSE]
+    t = _features(true_features, "true_features")[..., POSE]
+    _same_shape(p, t, "pred_features, true_features", f"(..., {N_POSE} or {N_FEATURES})")
     shape = p.shape[:-1] + (N_POSE // 3, 3)
     distances = np.linalg.norm(p.reshape(shape) - t.reshape(shape), axis=-1)
-    return float((distances if joints is None else distances[..., list(joints)]).mean())
+    return float((distances if joints is None else distances[..., _joint_indices(joints, N_POSE // 3)]).mean())
 
 
 def motion_error(pred_positions: np.ndarray, true_positions: np.ndarray) -> float:
@@ -43,7 +56,9 @@ def motion_error(pred_positions: np.ndarray, true_positions: np.ndarray) -> floa
 
     Takes world positions ``(..., frames, joints, 3)``: drift of the trajectory counts.
     """
-    p, t = _check_same(pred_positions, true_positions)
+    p = checks.array(pred_positions, "pred_positions", (..., "joints", 3))
+    t = checks.array(true_positions, "true_positions", (..., "joints", 3))
+    _same_shape(p, t, "pred_positions, true_positions", "(..., joints, 3)")
     return float(np.linalg.norm(p - t, axis=-1).mean())
 
 
@@ -53,11 +68,10 @@ def window_errors(pred_features: np.ndarray, true_features: np.ndarray, fps: flo
     Both are turned into world positions from the same start (the origin, facing +z), so
     the *motion error* also counts the drift that errors in the control cause.
     """
-    from .representation import to_positions
-    pred, true = np.asarray(pred_features), np.asarray(true_features)
-    if pred.shape != true.shape or pred.ndim != 3:
-        raise ValueError(f"expected two (windows, frames, features) arrays of one shape, "
-                         f"got {pred.shape} and {true.shape}")
+    pred = checks.array(pred_features, "pred_features", ("windows", "frames", N_FEATURES), dtype=None)
+    true = checks.array(true_features, "true_features", ("windows", "frames", N_FEATURES), dtype=None)
+    _same_shape(pred, true, "pred_features, true_features", f"(windows, frames, {N_FEATURES})")
+    fps = checks.rate(fps, "fps")
     pred_world = np.stack([to_positions(w, fps) for w in pred])
     true_world = np.stack([to_positions(w, fps) for w in true])
     return {"pose error (m)": pose_error(pred, true), "motion error (m)": motion_error(pred_world, true_world)}
@@ -81,11 +95,17 @@ def foot_skating(positions: np.ndarray, fps: float, feet: tuple[int, ...] = FEET
         feet: joint indices of the foot joints.
         contact_height_m: ``H`` per foot joint, or one value for all.
     """
-    positions = np.asarray(positions, dtype=np.float64)
-    if positions.ndim < 3 or positions.shape[-1] != 3 or positions.shape[-3] < 2:
+    positions = checks.array(positions, "positions", (..., "frames", "joints", 3))
+    if positions.shape[-3] < 2:
         raise ValueError(f"positions: expected (..., frames >= 2, joints, 3), got {positions.shape}")
-    feet_pos = positions[..., list(feet), :]
-    H = np.broadcast_to(np.asarray(contact_height_m, dtype=np.float64), (len(feet),))
+    fps = checks.rate(fps, "fps")
+    feet = _joint_indices(feet, positions.shape[-2], "feet")
+    H = checks.array(contact_height_m, "contact_height_m")
+    if H.ndim > 1 or H.size not in (1, len(feet)) or not (H > 0).all():
+        raise ValueError(f"contact_height_m: expected one height > 0 (m) or one per foot joint ({len(feet)}), "
+                         f"got {contact_height_m!r}")
+    feet_pos = positions[..., feet, :]
+    H = np.broadcast_to(H, (len(feet),))
     height = 0.5 * (feet_pos[..., 1:, :, 1] + feet_pos[..., :-1, :, 1])
     speed = np.linalg.norm(np.diff(feet_pos[..., [0, 2]], axis=-3), axis=-1) * fps
     weight = np.clip(2 - 2 ** (np.maximum(height, 0) / H), 0, 1)
@@ -98,12 +118,12 @@ def bone_length_drift(positions: np.ndarray, skeleton: Skeleton = LOCOMOTION) ->
     A rigid skeleton gives 0; ``0.01`` means bones stretch by about 1 % on average.
     Takes ``(frames, joints, 3)``, or ``(clips, frames, joints, 3)`` (averaged over clips).
     """
-    positions = np.asarray(positions, dtype=np.float64)
+    positions = checks.array(positions, "positions", (..., "frames", skeleton.n_joints, 3))
     if positions.ndim == 3:
         positions = positions[None]
     if positions.ndim != 4:
-        raise ValueError(f"positions: expected (frames, joints, 3) or (clips, frames, joints, 3), "
-                         f"got {positions.shape}")
+        raise ValueError(f"positions: expected (frames, {skeleton.n_joints}, 3) or (clips, frames, "
+                         f"{skeleton.n_joints}, 3), got {positions.shape}")
     lengths = skeleton.bone_lengths(positions)                 # (clips, frames, bones)
     return float((lengths.std(axis=1) / lengths.mean(axis=1)).mean())
 
@@ -115,8 +135,8 @@ def diversity(samples: np.ndarray) -> np.ndarray:
     mean over samples and joints of each joint's distance to the samples' mean pose at
     that frame. Zero where all samples agree; it grows as they spread apart.
     """
-    samples = np.asarray(samples, dtype=np.float64)
-    if samples.ndim != 4 or samples.shape[-1] != 3 or samples.shape[0] < 2:
+    samples = checks.array(samples, "samples", ("n_samples", "frames", "joints", 3))
+    if samples.shape[0] < 2:
         raise ValueError(f"samples: expected (n_samples >= 2, frames, joints, 3), got {samples.shape}")
     mean = samples.mean(axis=0, keepdims=True)
     return np.linalg.norm(samples - mean, axis=-1).mean(axis=(0, 2))
@@ -126,9 +146,9 @@ ANKLES = (LOCOMOTION.index("LeftFoot"), LOCOMOTION.index("RightFoot"))
 
 
 def _pose_joints(features: np.ndarray, name: str = "features") -> np.ndarray:
-    features = np.asarray(features, dtype=np.float64)
-    if features.ndim < 2 or features.shape[-1] < N_POSE:
-        raise ValueError(f"{name}: expected (..., frames, >= {N_POSE}) features, got {features.shape}")
+    """The joints ``(..., frames, 21, 3)`` of features ``(..., frames, 66)`` or poses ``(..., frames, 63)``."""
+    last = N_POSE if np.shape(features)[-1:] == (N_POSE,) else N_FEATURES
+    features = checks.array(features, name, (..., "frames", last))
     return features[..., POSE].reshape(*features.shape[:-1], -1, 3)
 
 
@@ -145,11 +165,11 @@ def stepping_speed(features: np.ndarray, fps: float, joints: tuple[int, ...] = A
     frame-to-frame jitter (which a sampled model adds) does not count as stepping; 0.1 s
     keeps 85 % of a walking stride's motion and removes most jitter.
     """
-    ankles = _pose_joints(features)[..., list(joints), :][..., [0, 2]]
+    ankles = _pose_joints(features)[..., _joint_indices(joints, N_POSE // 3), :][..., [0, 2]]
     if ankles.shape[-3] < 2:
         raise ValueError(f"features: need at least 2 frames, got {ankles.shape[-3]}")
-    if smooth_s < 0:
-        raise ValueError(f"smooth_s: expected >= 0 seconds, got {smooth_s}")
+    fps = checks.rate(fps, "fps")
+    checks.non_negative(smooth_s, "smooth_s", checks.MAX_SECONDS)
     if smooth_s > 0:
         ankles = np.moveaxis(gaussian_smooth(np.moveaxis(ankles, -3, 0), smooth_s * fps), 0, -3)
     return np.linalg.norm(np.diff(ankles, axis=-3), axis=-1).mean(axis=-1) * fps
@@ -179,10 +199,10 @@ def errors_by_frame(pred_features: np.ndarray, true_features: np.ndarray,
     arrays for feature windows ``(windows, frames, 66)``, averaged over windows and joints.
     The motion error integrates each window's control from the same start, so it grows
     with the horizon where the control is wrong."""
-    pred, true = np.asarray(pred_features, dtype=np.float64), np.asarray(true_features, dtype=np.float64)
-    if pred.ndim != 3 or pred.shape != true.shape:
-        raise ValueError(f"pred_features, true_features: expected two (windows, frames, 66) arrays of one shape, "
-                         f"got {pred.shape} and {true.shape}")
+    pred = checks.array(pred_features, "pred_features", ("windows", "frames", N_FEATURES))
+    true = checks.array(true_features, "true_features", ("windows", "frames", N_FEATURES))
+    _same_shape(pred, true, "pred_features, true_features", f"(windows, frames, {N_FEATURES})")
+    fps = checks.rate(fps, "fps")
     pose = np.linalg.norm(_pose_joints(pred) - _pose_joints(true), axis=-1).mean(axis=(0, 2))
     motion = np.linalg.norm(to_positions(pred, fps) - to_positions(true, fps), axis=-1).mean(axis=(0, 2))
     return pose, motion
@@ -198,9 +218,7 @@ def describe_motion(features: np.ndarray) -> dict[str, np.ndarray]:
       left ankle z minus right ankle z: the stride);
     * ``forward speed (m/s)``, ``turning (rad/s)``: means of the control.
     """
-    features = np.asarray(features, dtype=np.float64)
-    if features.ndim != 3 or features.shape[-1] != N_POSE + 3:
-        raise ValueError(f"features: expected (n, frames, {N_POSE + 3}), got {features.shape}")
+    features = checks.array(features, "features", ("n", "frames", N_FEATURES))
     pose = features[..., POSE].reshape(features.shape[:2] + (N_POSE // 3, 3))
     j = LOCOMOTION.index
     hands = pose[..., [j("LeftHand"), j("RightHand")], :]
@@ -228,7 +246,8 @@ the ground truth that generated motion is compared with when no real data is at 
 
 
 def summarize(positions: np.ndarray, fps: float, skeleton: Skeleton = LOCOMOTION) -> dict[str, float]:
-    """Foot skating (cm/s) and bone-length drift (%) of one clip, for tables."""
+    """Foot skating (cm/s) and bone-length drift (%) of one clip ``(frames, joints, 3)``, for tables."""
+    fps = checks.rate(fps, "fps")
     return {"foot skating (cm/s)": 100 * foot_skating(positions, fps),
             "bone-length drift (%)": 100 * bone_length_drift(positions, skeleton)}
 
@@ -238,13 +257,20 @@ def summarize(positions: np.ndarray, fps: float, skeleton: Skeleton = LOCOMOTION
 # ----------------------------------------------------------------------------------------
 
 def _check_samples(samples: np.ndarray, name: str = "samples", min_samples: int = 2) -> np.ndarray:
-    samples = np.asarray(samples, dtype=np.float64)
-    if samples.ndim < 2 or samples.shape[0] < min_samples or samples.shape[1] < 1:
+    """``samples`` ``(n_samples, frames, ...)`` as float64 ``(n_samples, frames, values)``."""
+    if np.ndim(samples) < 2 or np.shape(samples)[0] < min_samples:
         raise ValueError(f"{name}: expected (n_samples >= {min_samples}, frames >= 1, ...), "
-                         f"got {samples.shape}")
-    if not np.isfinite(samples).all():
-        raise ValueError(f"{name}: contains NaN or infinite values")
+                         f"got {np.shape(samples)}")
+    samples = checks.array(samples, name)
     return samples.reshape(samples.shape[0], samples.shape[1], -1)
+
+
+def _check_points(points: np.ndarray, name: str) -> np.ndarray:
+    """``points`` ``(n >= 2, ...)`` as a float64 array, no NaN."""
+    points = checks.array(points, name)
+    if points.ndim < 1 or points.shape[0] < 2:
+        raise ValueError(f"{name}: expected (n >= 2, ...), got {points.shape}")
+    return points
 
 
 def distances_to_mean(points: np.ndarray) -> np.ndarray:
@@ -254,11 +280,7 @@ def distances_to_mean(points: np.ndarray) -> np.ndarray:
     vector, a latent state). The training data's *mean-distance distribution* of Chen et
     al. (§6.3, Fig. 9) is this over all training frames: pass ``(frames, ...)``.
     """
-    points = np.asarray(points, dtype=np.float64)
-    if points.ndim < 1 or points.shape[0] < 2:
-        raise ValueError(f"points: expected (n >= 2, ...), got {points.shape}")
-    if not np.isfinite(points).all():
-        raise ValueError("points: contains NaN or infinite values")
+    points = _check_points(points, "points")
     flat = points.reshape(points.shape[0], -1)
     return np.linalg.norm(flat - flat.mean(axis=0), axis=-1)
 
@@ -280,7 +302,7 @@ def mean_distance_over_time(samples: np.ndarray) -> tuple[np.ndarray, np.ndarray
 def data_band(frames: np.ndarray) -> tuple[float, float]:
     """Mean and standard deviation of :func:`distances_to_mean` over data ``frames``
     ``(n, ...)``: the band that Fig. 9 of Chen et al. draws behind the samples' curve."""
-    distances = distances_to_mean(frames)
+    distances = distances_to_mean(_check_points(frames, "frames"))
     return float(distances.mean()), float(distances.std())
 
 
@@ -309,8 +331,7 @@ def frame_speed(sequences: np.ndarray, fps: float) -> np.ndarray:
     flat = _check_samples(sequences, "sequences", min_samples=1)
     if flat.shape[1] < 2:
         raise ValueError(f"sequences: need at least 2 frames, got {flat.shape[1]}")
-    if fps <= 0:
-        raise ValueError(f"fps: must be > 0, got {fps}")
+    fps = checks.rate(fps, "fps")
     return np.linalg.norm(np.diff(flat, axis=1), axis=-1) * fps
 
 
@@ -328,16 +349,16 @@ def fraction_in_range(samples: np.ndarray, reference: np.ndarray,
     towards 0.
     """
     flat = _check_samples(samples, min_samples=1)
-    reference = np.asarray(reference, dtype=np.float64)
+    reference = checks.array(reference, "reference")
     if reference.ndim < 1 or reference.shape[0] < 2 or \
             reference.reshape(reference.shape[0], -1).shape[1] != flat.shape[2]:
         raise ValueError(f"reference: expected (m >= 2, ...) with the samples' trailing shape "
                          f"{np.shape(samples)[2:]}, got {reference.shape}")
-    low_q, high_q = quantiles
+    low_q, high_q = checks.array(quantiles, "quantiles", (2,))
     if not 0 <= low_q < high_q <= 1:
         raise ValueError(f"quantiles: expected 0 <= low < high <= 1, got {quantiles}")
-    if margin < 0 or atol < 0:
-        raise ValueError(f"margin and atol: must be >= 0, got {margin} and {atol}")
+    checks.non_negative(margin, "margin")
+    checks.non_negative(atol, "atol")
     low, high = np.quantile(reference.reshape(reference.shape[0], -1), [low_q, high_q], axis=0)
     slack = margin * (high - low) + atol
     inside = (flat >= low - slack) & (flat <= high + slack)

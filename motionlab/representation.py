@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import checks
 from .filters import gaussian_smooth
 from .skeleton import LOCOMOTION, Skeleton
 
@@ -49,15 +50,10 @@ FACING_SMOOTHING_S = 0.25
 
 
 def _check_positions(positions: np.ndarray, skeleton: Skeleton) -> np.ndarray:
-    positions = np.asarray(positions, dtype=np.float64)
-    if positions.ndim != 3 or positions.shape[1:] != (skeleton.n_joints, 3):
-        raise ValueError(f"positions: expected shape (frames, {skeleton.n_joints}, 3), "
-                         f"got {positions.shape}")
-    if positions.shape[0] == 0:
+    """World positions as a float64 array ``(frames, joints, 3)``, at least one frame, no NaN."""
+    if len(np.shape(positions)) == 3 and np.shape(positions)[0] == 0:
         raise ValueError("positions: the clip has no frames")
-    if not np.isfinite(positions).all():
-        raise ValueError("positions: contains NaN or infinite values")
-    return positions
+    return checks.array(positions, "positions", ("frames", skeleton.n_joints, 3))
 
 
 def y_rotation(angle: np.ndarray) -> np.ndarray:
@@ -80,8 +76,14 @@ def wrap_angle(angle: np.ndarray) -> np.ndarray:
 def facing_angles(positions: np.ndarray, fps: float,
                   facing_smoothing_s: float = FACING_SMOOTHING_S,
                   skeleton: Skeleton = LOCOMOTION) -> np.ndarray:
-    """Smoothed heading ``(frames,)`` in radians: the character faces ``(sin a, 0, cos a)``."""
+    """Smoothed heading ``(frames,)`` in radians: the character faces ``(sin a, 0, cos a)``.
+
+    ``positions`` ``(frames, joints, 3)`` in metres; ``fps`` frames per second; the facing
+    direction is smoothed with a Gaussian of ``facing_smoothing_s`` seconds (0: not at all).
+    """
     positions = _check_positions(positions, skeleton)
+    fps = checks.rate(fps, "fps")
+    checks.non_negative(facing_smoothing_s, "facing_smoothing_s", checks.MAX_SECONDS)
     left_sh, right_sh = skeleton.index("LeftArm"), skeleton.index("RightArm")
     left_hip, right_hip = skeleton.index("LeftUpLeg"), skeleton.index("RightUpLeg")
     across = (positions[:, left_sh] - positions[:, right_sh]
@@ -98,6 +100,7 @@ def root_trajectory(positions: np.ndarray, fps: float,
                     skeleton: Skeleton = LOCOMOTION) -> np.ndarray:
     """Root frame per frame, ``(frames, 3)``: floor position ``x``, ``z`` (m) and heading (rad)."""
     positions = _check_positions(positions, skeleton)
+    fps = checks.rate(fps, "fps")
     heading = facing_angles(positions, fps, facing_smoothing_s, skeleton)
     hips = positions[:, skeleton.index("Hips")]
     return np.stack([hips[:, 0], hips[:, 2], heading], axis=-1)
@@ -121,6 +124,7 @@ def to_features(positions: np.ndarray, fps: float,
     See the module docstring for the definition of every column.
     """
     positions = _check_positions(positions, skeleton)
+    fps = checks.rate(fps, "fps")
     root = root_trajectory(positions, fps, facing_smoothing_s, skeleton)
     origin = np.stack([root[:, 0], np.zeros(len(root)), root[:, 1]], axis=-1)
     to_local = y_rotation(-root[:, 2])                              # world -> root frame
@@ -143,12 +147,9 @@ def integrate_control(control: np.ndarray, fps: float,
     ``start`` is the first frame's ``(x, z, heading)``; default the origin, facing ``+z``.
     The last frame's control is not needed: it would move the root past the clip's end.
     """
-    control = np.asarray(control, dtype=np.float64)
-    if control.ndim != 2 or control.shape[1] != 3:
-        raise ValueError(f"control: expected shape (frames, 3), got {control.shape}")
-    start = np.zeros(3) if start is None else np.asarray(start, dtype=np.float64)
-    if start.shape != (3,):
-        raise ValueError(f"start: expected (x, z, heading), got shape {start.shape}")
+    control = checks.array(control, "control", ("frames", 3))
+    fps = checks.rate(fps, "fps")
+    start = np.zeros(3) if start is None else checks.array(start, "start", (3,))
     frames = len(control)
     heading = start[2] + np.concatenate([[0.0], np.cumsum(control[:-1, 2]) / fps])
     local_step = np.stack([control[:-1, 1], np.zeros(frames - 1), control[:-1, 0]], -1) / fps
@@ -166,15 +167,15 @@ def to_positions(features: np.ndarray, fps: float, start: np.ndarray | None = No
     A batch of clips ``(..., frames, 3 * joints + 3)`` gives ``(..., frames, joints, 3)``,
     each clip from the same ``start``.
     """
-    features = np.asarray(features, dtype=np.float64)
     n_pose = 3 * skeleton.n_joints
-    if features.ndim > 2 and features.shape[-1] == n_pose + 3:
+    one_clip = np.ndim(features) <= 2
+    shape = ("frames", n_pose + 3) if one_clip else (..., "frames", n_pose + 3)
+    features = checks.array(features, "features", shape)
+    fps = checks.rate(fps, "fps")
+    if not one_clip:
         flat = features.reshape(-1, *features.shape[-2:])
         positions = np.stack([to_positions(clip, fps, start, skeleton) for clip in flat])
         return positions.reshape(*features.shape[:-1], skeleton.n_joints, 3)
-    if features.ndim != 2 or features.shape[1] != n_pose + 3:
-        raise ValueError(f"features: expected shape (frames, {n_pose + 3}) or (..., frames, {n_pose + 3}), "
-                         f"got {features.shape}")
     root = integrate_control(features[:, n_pose:], fps, start)
     pose = features[:, :n_pose].reshape(len(features), skeleton.n_joints, 3)
     origin = np.stack([root[:, 0], np.zeros(len(root)), root[:, 1]], axis=-1)
@@ -183,17 +184,17 @@ def to_positions(features: np.ndarray, fps: float, start: np.ndarray | None = No
 
 def mirror_features(features: np.ndarray, skeleton: Skeleton = LOCOMOTION) -> np.ndarray:
     """Mirror left and right: reflect ``x``, swap left/right joints, negate sideways and
-    turning velocity. Works on ``(..., frames, features)``; applying it twice is exact."""
-    features = np.asarray(features)
+    turning velocity. Works on ``(..., frames, 3 * joints + 3)``; applying it twice is exact."""
     n_pose = 3 * skeleton.n_joints
+    features = checks.array(features, "features", (..., "frames", n_pose + 3), dtype=None)
     pose = features[..., :n_pose].reshape(features.shape[:-1] + (skeleton.n_joints, 3))
     pose = pose[..., skeleton.mirror, :] * np.array([-1.0, 1.0, 1.0])
     control = features[..., n_pose:] * np.array([1.0, -1.0, -1.0])
     return np.concatenate([pose.reshape(features.shape[:-1] + (n_pose,)), control], axis=-1)
 
 
-def reverse_features(features: np.ndarray, fps: float) -> np.ndarray:
-    """Play a clip backwards (MoGlow §5.1), in feature space: ``(frames, features)``.
+def reverse_features(features: np.ndarray, fps: float, skeleton: Skeleton = LOCOMOTION) -> np.ndarray:
+    """Play a clip backwards (MoGlow §5.1), in feature space: ``(frames, 3 * joints + 3)``.
 
     Poses are reversed in order. Each control is recomputed for the reversed clip: the
     step from frame ``t`` back to ``t - 1`` seen from frame ``t`` is the forward step
@@ -201,10 +202,9 @@ def reverse_features(features: np.ndarray, fps: float) -> np.ndarray:
     ``to_features`` of the reversed world positions, and reversing twice is the identity
     (to float rounding).
     """
-    features = np.asarray(features, dtype=np.float64)
-    if features.ndim != 2 or features.shape[1] < 3:
-        raise ValueError(f"features: expected shape (frames, features), got {features.shape}")
-    n_pose = features.shape[1] - 3
+    n_pose = 3 * skeleton.n_joints
+    features = checks.array(features, "features", ("frames", n_pose + 3))
+    fps = checks.rate(fps, "fps")
     out = features[::-1].copy()
     control = features[:, n_pose:]
     if len(features) > 1:

@@ -29,7 +29,7 @@ Positions are metres, y up, floor at y = 0; angles in :class:`Style` are degrees
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass
 
 import numpy as np
 

@@ -17,7 +17,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib import animation
 
-from .representation import root_trajectory
+from . import checks
+from .representation import N_FEATURES, root_trajectory
 from .skeleton import LOCOMOTION, Skeleton
 
 LEFT_COLOR, RIGHT_COLOR, CENTER_COLOR = "tab:blue", "tab:red", "black"
@@ -38,14 +39,13 @@ def bone_colors(skeleton: Skeleton = LOCOMOTION) -> list[str]:
     return colors
 
 
-def _check_poses(poses: np.ndarray, skeleton: Skeleton) -> np.ndarray:
-    poses = np.asarray(poses, dtype=np.float64)
-    if poses.ndim == 2:
-        poses = poses[None]
-    if poses.ndim != 3 or poses.shape[1:] != (skeleton.n_joints, 3):
-        raise ValueError(f"poses: expected ({skeleton.n_joints}, 3) or (n, {skeleton.n_joints}, 3), "
+def _check_poses(poses: np.ndarray, skeleton: Skeleton, name: str = "poses") -> np.ndarray:
+    """One pose ``(joints, 3)`` or several ``(n, joints, 3)`` as a float64 array ``(n, joints, 3)``."""
+    if np.ndim(poses) not in (2, 3):
+        raise ValueError(f"{name}: expected shape ({skeleton.n_joints}, 3) or (n, {skeleton.n_joints}, 3), "
                          f"got {np.shape(poses)}")
-    return poses
+    poses = checks.array(poses, name, (..., skeleton.n_joints, 3))
+    return poses[None] if poses.ndim == 2 else poses
 
 
 def _equal_3d_limits(ax, center: np.ndarray, radius: float, height: float) -> None:
@@ -110,9 +110,11 @@ def plot_trajectory(positions: np.ndarray, fps: float, ax=None, arrow_every_s: f
     from ``+y``). A dot marks the start; arrows show the smoothed facing direction every
     ``arrow_every_s`` seconds. Returns the axes.
     """
+    fps = checks.rate(fps, "fps")
+    arrow_every_s = checks.seconds(arrow_every_s, "arrow_every_s")
+    root = root_trajectory(positions, fps, skeleton=skeleton)
     if ax is None:
         ax = plt.figure(figsize=(5, 5)).add_subplot()
-    root = root_trajectory(positions, fps, skeleton=skeleton)
     x, z, heading = root[:, 0], root[:, 1], root[:, 2]
     ax.plot(z, x, color=color, label=label)
     ax.plot(z[:1], x[:1], "o", color=color)
@@ -146,15 +148,19 @@ def animate(clips: np.ndarray | Sequence[np.ndarray], fps: float, titles: Sequen
         max_frames: stop after this many frames of the clip (before ``step``).
         size: inches per panel.
     """
-    if isinstance(clips, np.ndarray) and clips.ndim == 3:
-        clips = [clips]
-    clips = [_check_poses(c, skeleton) for c in clips]
+    clips = [clips] if getattr(clips, "ndim", None) == 3 else list(clips)   # one clip: an array or a tensor
+    if len(clips) == 0:
+        raise ValueError(f"clips: expected a clip (frames, {skeleton.n_joints}, 3) or a list of clips, got none")
+    clips = [_check_poses(c, skeleton, f"clips[{i}]") for i, c in enumerate(clips)]
     if titles is not None and len(titles) != len(clips):
         raise ValueError(f"titles: expected {len(clips)} titles, got {len(titles)}")
+    fps = checks.rate(fps, "fps")
+    step = checks.whole(step, "step")
+    radius, size = checks.positive(radius, "radius"), checks.positive(size, "size")
     n_frames = max(len(c) for c in clips)
     if max_frames is not None:
-        n_frames = min(n_frames, max_frames)
-    frames = list(range(0, n_frames, max(1, int(step))))
+        n_frames = min(n_frames, checks.whole(max_frames, "max_frames"))
+    frames = list(range(0, n_frames, step))
     fig = plt.figure(figsize=(size * len(clips), size))
     colors = bone_colors(skeleton)
     panels = []
@@ -219,7 +225,7 @@ def show(anim: animation.FuncAnimation, dpi: int = 72):
 
 def save_gif(anim: animation.FuncAnimation, path: str, fps: float | None = None, dpi: int = 72) -> None:
     """Save an animation as a GIF with Pillow (ships with matplotlib); no ffmpeg needed."""
-    interval_fps = 1000.0 / anim._interval if fps is None else fps
+    interval_fps = 1000.0 / anim._interval if fps is None else checks.rate(fps, "fps")
     anim.save(path, writer=animation.PillowWriter(fps=interval_fps), dpi=dpi)
 
 
@@ -236,9 +242,10 @@ def plot_controls(control: np.ndarray, fps: float, axes=None, label: str | None 
     turning velocity (rad/s, left +). Returns the three axes.
     """
     from .representation import CONTROL_NAMES
-    control = np.asarray(control)
-    if control.ndim != 2 or control.shape[1] not in (3, 66):
-        raise ValueError(f"control: expected (frames, 3) or (frames, 66), got {control.shape}")
+    control = checks.array(control, "control", ("frames", "columns"), dtype=None)
+    if control.shape[1] not in (3, N_FEATURES):
+        raise ValueError(f"control: expected (frames, 3) or (frames, {N_FEATURES}), got {control.shape}")
+    fps = checks.rate(fps, "fps")
     control = control[:, -3:]
     if axes is None:
         axes = plt.figure(figsize=(9, 5)).subplots(3, 1, sharex=True)
@@ -260,8 +267,9 @@ def plot_frame(positions: np.ndarray, frame: int, fps: float, fig=None, title: s
     The path shows where the character has been (solid) and will go (faint), with a
     marker at ``frame``. This is the figure the notebook widgets redraw. Returns the figure.
     """
-    positions = np.asarray(positions)
-    if not 0 <= frame < len(positions):
+    positions = checks.array(positions, "positions", ("frames", skeleton.n_joints, 3), dtype=None)
+    fps = checks.rate(fps, "fps")
+    if checks.whole(frame, "frame", 0) >= len(positions):
         raise ValueError(f"frame: expected 0..{len(positions) - 1}, got {frame}")
     fig = fig or plt.figure(figsize=(9, 4))
     ax3d = fig.add_subplot(1, 2, 1, projection="3d")
@@ -304,9 +312,10 @@ def plot_conv_filters(weight, feature_names: Sequence[str], n: int = 6, fps: flo
     """The ``n`` strongest filters of a temporal convolution, ``weight`` ``(filters, features, width)``,
     as heat maps of feature (rows) against time offset (columns). Red and blue are positive and
     negative weights. Returns the figure."""
-    weight = np.asarray(weight.detach().cpu() if hasattr(weight, "detach") else weight)
-    if weight.ndim != 3 or weight.shape[1] != len(feature_names):
-        raise ValueError(f"weight: expected (filters, {len(feature_names)}, width), got {weight.shape}")
+    weight = weight.detach().cpu() if hasattr(weight, "detach") else weight
+    weight = checks.array(weight, "weight", ("filters", len(feature_names), "width"), dtype=None)
+    n = checks.whole(n, "n")
+    fps = None if fps is None else checks.rate(fps, "fps")
     order = np.argsort(-np.abs(weight).sum(axis=(1, 2)))[:n]
     fig, axes = plt.subplots(1, len(order), figsize=(1.6 * len(order) + 1.5, 6), sharey=True)
     axes = np.atleast_1d(axes)
@@ -335,12 +344,12 @@ def plot_filmstrip(motion: np.ndarray, ax=None, n: int = 6, spacing: float = 0.4
     ``spacing`` metres per step, so what moves is the body, not the path. The small
     multiples of notebook 03 are made of these. Returns the axes.
     """
-    motion = np.asarray(motion)
+    n_pose = 3 * skeleton.n_joints
+    shape = ("frames", n_pose + 3) if np.ndim(motion) == 2 else ("frames", skeleton.n_joints, 3)
+    motion = checks.array(motion, "motion", shape, dtype=None)
     if motion.ndim == 2:
-        motion = motion[:, : 3 * skeleton.n_joints].reshape(len(motion), skeleton.n_joints, 3)
-    if motion.ndim != 3 or motion.shape[1:] != (skeleton.n_joints, 3):
-        raise ValueError(f"motion: expected (frames, features) or (frames, {skeleton.n_joints}, 3), "
-                         f"got {np.shape(motion)}")
+        motion = motion[:, :n_pose].reshape(len(motion), skeleton.n_joints, 3)
+    n = checks.whole(n, "n")
     if ax is None:
         ax = plt.figure(figsize=(0.8 * n + 0.5, 2.2)).add_subplot()
     frames = np.linspace(0, len(motion) - 1, n).round().astype(int)
@@ -362,7 +371,8 @@ def plot_motion(features: np.ndarray, fps: float, fig=None, title: str | None = 
     """One window of features ``(frames, 66)`` at a glance: a side-view filmstrip of the
     body and, beside it, the path it walks seen from above. Returns the figure."""
     from .representation import to_positions
-    features = np.asarray(features)
+    features = checks.array(features, "features", ("frames", N_FEATURES), dtype=None)
+    fps = checks.rate(fps, "fps")
     fig = fig or plt.figure(figsize=(10, 2.6))
     grid = fig.add_gridspec(1, 4)
     plot_filmstrip(features, ax=fig.add_subplot(grid[0, :3]), n=n, title=title)

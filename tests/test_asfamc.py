@@ -362,3 +362,69 @@ def test_cmu_clip_loads_like_a_bvh_clip():
     hips_height = clip.positions[:, LOCOMOTION.index("Hips"), 1]
     assert 0.8 < np.median(hips_height) < 1.1                       # metres
     assert re.search(r"16_15\.amc$", clip.source)
+
+
+# --------------------------------------------------------------------------- malformed and variant files
+# (the same on real CMU files: tests/test_malformed_files.py)
+
+@pytest.mark.parametrize("old, new, where, message", [
+    ("length 2\n", "length nan\n", "length nan", r"bad number 'nan' for length: not a finite number"),
+    ("length 3\n", "length -3\n", "length -3", r"length must be >= 0, got -3"),
+    ("direction 1 0 0", "direction 0 0 0", "direction 0 0 0", r"direction 0 0 0 has length zero"),
+    ("direction 0 1 0", "direction 0 1e400 0", "1e400", r"bad number '1e400' for direction"),
+    ("axis 0 0 90 XYZ", "axis 0 inf 90 XYZ", "axis 0 inf", r"bad number 'inf' for axis"),
+    ("(-10.0 170.0)", "(nan 170.0)", "(nan 170.0)", r"bad number 'nan' for a limit"),
+    ("position 0 0 0", "position 0 nan 0", "position 0 nan", r"bad number 'nan' for root position"),
+])
+def test_non_finite_and_degenerate_asf_values_name_file_and_line(tmp_path, old, new, where, message):
+    assert old in ASF_TEXT
+    text = ASF_TEXT.replace(old, new, 1)
+    with pytest.raises(ValueError, match=rf"chain\.asf:{line_of(text, where)}: {message}"):
+        asfamc.read_asf(write(tmp_path, "chain.asf", text))
+
+
+def test_asf_keywords_in_upper_case_inf_limits_and_a_byte_order_mark(tmp_path):
+    upper = re.sub(r"(?m)^(\s*)(:\w+|begin|end|id|name|direction|length|axis|dof|limits|mass|angle|order|"
+                   r"position|orientation)\b", lambda m: m.group(1) + m.group(2).upper(), ASF_TEXT)
+    upper = "\ufeff" + upper.replace("(-10.0 170.0)", "(-inf inf)").replace("root upper", "ROOT upper")
+    asf, amc = chain(tmp_path, asf_text=upper)
+    assert asf.bone("lower").limits.tolist() == [[-np.inf, np.inf]]
+    assert np.allclose(asfamc.world_positions(asf, amc)[0], EXPECTED)
+
+
+@pytest.mark.parametrize("text, message", [
+    ("", r"chain_01\.amc: no frames: the file is empty"),
+    (":FULLY-SPECIFIED\n:DEGREES\n", r"chain_01\.amc:2: no frames: the file has only a header"),
+    (AMC_TEXT.replace("upper 90 0\n", "upper 90 nan\n"),
+     r"chain_01\.amc:14: bad number 'nan' for bone upper: not a finite number"),
+    (AMC_TEXT.replace("\n5\n", f"\n{10**20}\n"),
+     r"chain_01\.amc:19: frame number 100000000000000000000 is too large"),
+    ("#!OML:ASF chain.asf\n<!DOCTYPE html>\n<html></html>\n",
+     r"chain_01\.amc:2: this line starts like HTML or XML .*, not AMC"),
+])
+def test_empty_non_finite_and_html_amc_files_name_file_and_line(tmp_path, text, message):
+    asf = asfamc.read_asf(write(tmp_path, "chain.asf", ASF_TEXT))
+    with pytest.raises(ValueError, match=message):
+        asfamc.read_amc(write(tmp_path, "chain_01.amc", text), asf)
+
+
+def test_amc_cut_short_loses_its_last_frame_with_a_warning(tmp_path):
+    cut = AMC_TEXT[:AMC_TEXT.rindex("upper 0 0")]              # frame 6 ends after its root line
+    asf = asfamc.read_asf(write(tmp_path, "chain.asf", ASF_TEXT))
+    with pytest.warns(UserWarning, match=r"chain_01\.amc:\d+: the last frame \(6\) is incomplete"):
+        amc = asfamc.read_amc(write(tmp_path, "chain_01.amc", cut), asf)
+    assert amc.n_frames == 5
+    assert np.allclose(asfamc.world_positions(asf, amc)[0], EXPECTED[:5])
+
+
+def test_load_checks_frame_rates_and_finds_an_uppercase_skeleton(tmp_path):
+    amc_path = write(tmp_path, "16_15.amc", AMC_TEXT)
+    write(tmp_path, "16.ASF", ASF_TEXT)
+    assert asfamc.skeleton_path(amc_path).name == "16.ASF"
+    for bad in (0, -120, float("nan"), 1e9):
+        with pytest.raises(ValueError, match=r"^fps: "):
+            asfamc.load_locomotion(amc_path, fps=bad)
+        with pytest.raises(ValueError, match=r"^fps: "):
+            asfamc.load_clip(amc_path, fps=bad)
+        with pytest.raises(ValueError, match=r"^source_fps: "):
+            asfamc.load_clip(amc_path, source_fps=bad)

@@ -153,3 +153,57 @@ def test_from_positions_survives_half_turns_and_rejects_bad_shapes():
     assert np.abs(clip.world_positions()[:, index] - walk).max() < 0.05
     with pytest.raises(ValueError, match="positions: expected shape"):
         bvh.from_positions(walk[:, :20], 20)
+
+
+def test_keywords_in_any_case_a_byte_order_mark_and_deep_chains(tmp_path):
+    expected = bvh.read(write_text(tmp_path, TWO_BONE)).world_positions(include_end_sites=True)
+    lower = TWO_BONE
+    for old, new in [("HIERARCHY", "hierarchy"), ("ROOT", "root"), ("JOINT", "joint"), ("OFFSET", "offset"),
+                     ("CHANNELS", "channels"), ("End Site", "end site"), ("rotation", "ROTATION"),
+                     ("MOTION", "motion"), ("Frame Time:", "frame time:"), ("Frames:", "FRAMES:")]:
+        lower = lower.replace(old, new)
+    clip = bvh.read(write_text(tmp_path, "\ufeff" + lower, "lower.bvh"))
+    assert clip.channels[1] == ("Xrotation", "Yrotation", "Zrotation")
+    assert np.array_equal(clip.world_positions(include_end_sites=True), expected)
+    depth = 3000                                   # far beyond Python's recursion limit
+    chain = (TWO_BONE.split("\tJOINT Upper")[0]
+             + "".join(f"JOINT J{k} {{ OFFSET 0 1 0\n" for k in range(depth)) + "}\n" * depth
+             + "}\nMOTION\nFrames: 1\nFrame Time: 0.05\n0 0 0 0 0 0\n")
+    deep = bvh.read(write_text(tmp_path, chain, "deep.bvh"))
+    assert len(deep.joint_names) == depth + 1
+    assert deep.world_positions()[0, -1] == pytest.approx([0, depth, 0])
+
+
+@pytest.mark.parametrize("old, new, message", [
+    ("OFFSET 0 1 0", "OFFSET 0 nan 0", r"clip.bvh:8: bad number 'nan' for the OFFSET of Upper: not a finite"),
+    ("OFFSET 0 0 3", "OFFSET 0 0 1e400", r"clip.bvh:16: bad number '1e400' for the End Site"),
+    ("1 2 3 90", "1 2 inf 90", r"clip.bvh:25: bad number 'inf' for Root Zposition: not a finite"),
+    ("JOINT Lower", "JOINT Upper", r"clip.bvh:10: joint name 'Upper' is used twice \(first on line 6\)"),
+    ("Frame Time: .05", "Frame Time: 0", r"clip.bvh:23: Frame Time must be between 0.0005 s"),
+    ("Frame Time: .05", "Frame Time: 1e-9", r"clip.bvh:23: Frame Time must be between"),
+    ("Frame Time: .05", "Frame Time: nan", r"clip.bvh:23: Frame Time must be between"),
+    ("Frames: 3", "Frames: -3", r"clip.bvh:22: bad frame count '-3'"),
+    ("Frames: 3", f"Frames: {10**12}", r"clip.bvh:22: header says 1000000000000 frames, file has 3"),
+    (TWO_BONE, "<html><body>Not Found</body></html>\n", r"clip.bvh:1: this line starts like HTML or XML .*, not BVH"),
+])
+def test_non_finite_duplicate_and_absurd_values_name_file_and_line(tmp_path, old, new, message):
+    with pytest.raises(ValueError, match=message):
+        bvh.read(write_text(tmp_path, TWO_BONE.replace(old, new)))
+
+
+def test_binary_data_is_a_value_error_naming_the_file(tmp_path):
+    path = tmp_path / "clip.bvh"
+    path.write_bytes(np.random.default_rng(0).bytes(2000))
+    with pytest.raises(ValueError, match=r"clip\.bvh: not text: it holds NUL bytes"):
+        bvh.read(path)
+
+
+def test_write_rejects_duplicate_names_and_non_finite_values(tmp_path):
+    clip = bvh.read(write_text(tmp_path, TWO_BONE))
+    clip.joint_names[2] = "Upper"
+    with pytest.raises(ValueError, match="joint names must be unique"):
+        bvh.write(tmp_path / "bad.bvh", clip)
+    clip = bvh.read(write_text(tmp_path, TWO_BONE))
+    clip.motion[1, 4] = np.nan
+    with pytest.raises(ValueError, match="must be finite"):
+        bvh.write(tmp_path / "bad.bvh", clip)

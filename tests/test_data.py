@@ -156,3 +156,85 @@ def test_a_folder_of_asf_amc_loads_like_a_folder_of_bvh(tmp_path):
     shutil.copy(CMU_DIR / "16_15.bvh", tmp_path / "16_15.bvh")
     with pytest.raises(ValueError, match=r"trials in two formats \(16_15\)"):
         data.load(tmp_path)
+
+
+# --------------------------------------------------------------------------- argument checks
+
+BAD_RATES = [0, -20, float("nan"), float("inf"), 1e9, "20", True]
+
+
+@pytest.mark.parametrize("bad", BAD_RATES + [None])
+def test_load_checks_fps_and_names_it(tmp_path, bad):
+    cmu_like_bvh(tmp_path / "a.bvh")
+    for source in (tmp_path, tmp_path / "a.bvh", "synthetic"):
+        with pytest.raises(ValueError, match=r"^fps: "):
+            data.load(source, fps=bad)
+
+
+@pytest.mark.parametrize("bad", BAD_RATES)
+def test_every_frame_rate_argument_is_checked_and_named(tmp_path, bad):
+    cmu_like_bvh(tmp_path / "a.bvh")
+    with pytest.raises(ValueError, match=r"^fps: "):
+        data.load_bvh(tmp_path / "a.bvh", fps=bad)
+    clip = clips_for_tests(1)[0]
+    with pytest.raises(ValueError, match=r"^fps: "):
+        clip.resampled(bad)
+    with pytest.raises(ValueError, match=r"^fps: "):
+        data.augment(clip.features(), bad)
+
+
+@pytest.mark.parametrize("argument, bad", [
+    ("n_clips", 0), ("n_clips", 2.5), ("n_clips", -1), ("duration_s", 0), ("duration_s", float("nan")),
+    ("duration_s", float("inf")), ("seed", -1), ("seed", 1.5),
+])
+def test_synthetic_load_checks_counts_and_durations(argument, bad):
+    with pytest.raises(ValueError, match=rf"^{argument}: "):
+        data.load("synthetic", **{argument: bad})
+
+
+def test_load_bvh_checks_unit_and_tpose_arguments(tmp_path):
+    cmu_like_bvh(tmp_path / "a.bvh")
+    for bad in (0, -1, float("nan")):
+        with pytest.raises(ValueError, match=r"^unit_m: "):
+            data.load_bvh(tmp_path / "a.bvh", unit_m=bad)
+    with pytest.raises(ValueError, match=r"^drop_tpose: "):
+        data.load_bvh(tmp_path / "a.bvh", drop_tpose="yes")
+
+
+@pytest.mark.parametrize("argument, bad", [
+    ("window_s", 0), ("window_s", -2.0), ("window_s", float("nan")), ("window_s", float("inf")),
+    ("window_s", "2"), ("stride_s", 0), ("stride_s", float("nan")), ("stride_s", -1.0),
+    ("window_s", 0.01), ("stride_s", 0.001), ("seed", -3),
+])
+def test_prepare_checks_durations_and_names_them(argument, bad):
+    clips = clips_for_tests(4)
+    with pytest.raises(ValueError, match=rf"^{argument}: "):
+        data.prepare(clips, **{"window_s": 2.0, argument: bad})
+
+
+def test_a_window_longer_than_every_clip_says_so():
+    clips = clips_for_tests(4)                       # 60 to 90 frames at 20 fps
+    with pytest.raises(ValueError, match=r"^window_s: a window of 10 s \(200 frames at 20 fps\) is "
+                                         r"longer than every clip; the longest, c03, has 90 frames"):
+        data.prepare(clips, window_s=10.0)
+
+
+@pytest.mark.parametrize("length, stride, name", [(40, 0, "stride"), (40, -5, "stride"), (40, 2.5, "stride"),
+                                                  (0, 10, "length"), (40.0, 10, "length")])
+def test_cut_windows_checks_length_and_stride(length, stride, name):
+    with pytest.raises(ValueError, match=rf"^{name}: "):
+        data.cut_windows(np.zeros((100, 3)), length, stride)
+
+
+def test_split_fractions_must_be_finite():
+    with pytest.raises(ValueError, match="fractions"):
+        data.split_clips(clips_for_tests(5), (float("nan"), 0.5, 0.5))
+
+
+def test_locomotion_joints_use_the_root_when_no_joint_is_called_hips(tmp_path):
+    clip = cmu_like_bvh(tmp_path / "hips.bvh")
+    clip.joint_names[0] = "pelvis"
+    bvh.write(tmp_path / "pelvis.bvh", clip)
+    assert np.array_equal(data.load_bvh(tmp_path / "pelvis.bvh").positions,
+                          data.load_bvh(tmp_path / "hips.bvh").positions)
+    assert data.locomotion_joints(bvh.read(tmp_path / "pelvis.bvh"))[0] == 0

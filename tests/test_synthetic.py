@@ -171,7 +171,6 @@ def test_preset_controls_start_from_standing_and_reach_their_targets():
 
 
 def test_walked_control_follows_the_path_with_the_stride_sway():
-    import numpy as np
     from motionlab import synthetic
     drawn = synthetic.preset_control("walk", 6.0, 20.0)
     walked = synthetic.walked_control(drawn, 20.0)

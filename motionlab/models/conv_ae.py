@@ -90,10 +90,16 @@ class ConvAutoencoder(nn.Module):
         # W', b': back from the manifold to every feature
         self.decoder = nn.Conv1d(config.filters, config.n_features, config.width, padding=pad, padding_mode="replicate")
 
-    def _check(self, x: torch.Tensor) -> None:
-        if x.ndim != 3 or x.shape[-1] != self.config.n_features or x.shape[1] % 2:
-            raise ValueError(f"x: expected (batch, even frames, {self.config.n_features}), "
-                             f"got {tuple(x.shape)}")
+    def _check(self, x: torch.Tensor, name: str = "x", even: bool = True) -> None:
+        """Refuse anything but a finite tensor ``(batch, frames, n_features)`` (even frames if ``even``)."""
+        expected = f"(batch, {'even ' if even else ''}frames, {self.config.n_features})"
+        if not isinstance(x, torch.Tensor):
+            raise ValueError(f"{name}: expected {expected} tensor, got {type(x).__name__}")
+        if (x.ndim != 3 or x.shape[-1] != self.config.n_features or 0 in x.shape[:2]
+                or (even and x.shape[1] % 2)):
+            raise ValueError(f"{name}: expected {expected}, got {tuple(x.shape)}")
+        if not torch.isfinite(x).all():
+            raise ValueError(f"{name}: contains NaN or infinite values")
 
     def encode(self, x: torch.Tensor, return_indices: bool = False):
         """Φ(x) = Ψ(ReLU(x * W + b)): ``(batch, frames, n_features)`` -> ``(batch, frames // 2, filters)``."""
@@ -111,6 +117,7 @@ class ConvAutoencoder(nn.Module):
         three coordinates) and control channels are zeroed (set to the data's mean) with
         probability ``input_dropout``, and Gaussian noise of ``input_noise`` standard
         deviations is added."""
+        self._check(x, even=False)
         if self.config.input_dropout > 0:
             n_joints = (x.shape[-1] - 3) // 3
             keep_joint = torch.rand(x.shape[0], 1, n_joints, 1, device=x.device) >= self.config.input_dropout
@@ -123,8 +130,16 @@ class ConvAutoencoder(nn.Module):
 
     def decode(self, y: torch.Tensor, indices: torch.Tensor | None = None) -> torch.Tensor:
         """Φ'(y) = Ψ'(y) * W' + b': ``(batch, frames, filters)`` -> ``(batch, 2 * frames, n_features)``."""
-        if y.ndim != 3 or y.shape[-1] != self.config.filters:
-            raise ValueError(f"y: expected (batch, frames, {self.config.filters}), got {tuple(y.shape)}")
+        if not isinstance(y, torch.Tensor) or y.ndim != 3 or y.shape[-1] != self.config.filters or 0 in y.shape[:2]:
+            got = tuple(y.shape) if isinstance(y, torch.Tensor) else type(y).__name__
+            raise ValueError(f"y: expected (batch, frames, {self.config.filters}) tensor, got {got}")
+        if not torch.isfinite(y).all():
+            raise ValueError("y: contains NaN or infinite values")
+        return self._decode(y, indices)
+
+    def _decode(self, y: torch.Tensor, indices: torch.Tensor | None) -> torch.Tensor:
+        # unchecked, for forward(): a model that diverges during training should end in the
+        # training loop's NaN-loss message, not in a complaint about its own features
         y = y.transpose(1, 2)
         if self.config.depool == "unpool":
             if indices is None:
@@ -141,8 +156,8 @@ class ConvAutoencoder(nn.Module):
         """Reconstruct ``x`` ``(batch, frames, n_features)`` through the manifold."""
         if self.config.depool == "unpool":
             y, indices = self.encode(x, return_indices=True)
-            return self.decode(y, indices)
-        return self.decode(self.encode(x))
+            return self._decode(y, indices)
+        return self._decode(self.encode(x), None)
 
     def project(self, x: torch.Tensor) -> torch.Tensor:
         """Holden's use of the manifold: map (possibly corrupted) motion to the nearest
@@ -155,13 +170,16 @@ class ConvAutoencoder(nn.Module):
         return out
 
     def loss(self, batch: torch.Tensor) -> dict[str, torch.Tensor]:
-        """Mean squared reconstruction error (§III-B) plus Holden's L1 weight penalty."""
+        """Mean squared reconstruction error (§III-B) plus Holden's L1 weight penalty, for a
+        ``batch`` ``(batch, even frames, n_features)``."""
+        self._check(batch, "batch")
         reconstruction = F.mse_loss(self(batch), batch)
         l1 = self.encoder.weight.abs().sum() + self.decoder.weight.abs().sum()
         return {"loss": reconstruction + self.config.l1 * l1, "mse": reconstruction}
 
     def trace(self, x: torch.Tensor) -> list[tuple[str, tuple[int, ...]]]:
         """The shape of ``x`` at every stage, for a walk-through of the architecture."""
+        self._check(x)
         with torch.no_grad():
             inside = x.transpose(1, 2)
             conv = self.encoder(inside)
