@@ -70,9 +70,10 @@ NBVAL_OUTPUT_TIMEOUT_S = 300
 value hard-coded in nbval 0.11 (nbval issues #136 and #231; ``--nbval-cell-timeout`` does
 not cover it). A cell that drew many progress-bar updates can take longer than that to
 deliver them on a busy 2-core machine, and the notebook then fails with "Timeout of 5
-seconds exceeded waiting for output" although it ran correctly. We give it five minutes: a
-minute was not enough with three notebook kernels sharing 2 cores. (This hook lives here, not in notebooks/, because a second conftest.py would shadow this one for
-the tests' ``from conftest import ...``; it applies to every item ``pytest`` collects.)"""
+seconds exceeded waiting for output" although it ran correctly. We give it five minutes, so
+that the notebooks also pass on a machine shared with other jobs. (This hook lives here,
+not in notebooks/, because a second conftest.py would shadow this one for the tests'
+``from conftest import ...``; it applies to every item ``pytest`` collects.)"""
 
 
 def pytest_collection_modifyitems(items):
