@@ -30,7 +30,8 @@ import torch  # noqa: E402
 
 from motionlab import data, metrics, training  # noqa: E402
 from motionlab import representation as rep  # noqa: E402
-from motionlab.models.dfn import DFN, DFNConfig, train_stages  # noqa: E402
+from motionlab.models.dfn import DFN, DFNConfig  # noqa: E402
+from motionlab.training import train_stages  # noqa: E402
 
 SAMPLES, SECONDS, PREFIX, PREFIXES = 16, 30, 10, 3
 TIMES_S = (1, 2, 5, 10, 20, 30)

@@ -256,6 +256,45 @@ def train(model: nn.Module, data, config: TrainConfig | None = None,
     return history
 
 
+def train_stages(model: nn.Module, data, configs, stages: tuple[str, ...] | None = None) -> dict:
+    """Train a staged model (``model.stages``, e.g. DFN's §5.6: the frame autoencoder, then
+    the sequence autoencoder with it frozen, then the dynamics model with both frozen), one
+    stage after another with :func:`train`.
+
+    Args:
+        model: a model with a ``stages`` tuple and ``set_stage(name, windows)`` that freezes
+            what the stage does not train.
+        data: a :class:`motionlab.data.MotionData` (or what :func:`train` accepts with a
+            ``.train`` set of windows).
+        configs: one :class:`TrainConfig` for all stages, or a dict from stage name to its config.
+        stages: which stages to run, in order (default: all; a later stage needs the earlier
+            ones trained).
+
+    Returns ``{stage: History}``; afterwards every parameter is trainable again.
+    """
+    known = tuple(getattr(model, "stages", ()))
+    if not known or not hasattr(model, "set_stage"):
+        raise ValueError(f"model: {type(model).__name__} is not trained in stages (no stages / set_stage)")
+    stages = known if stages is None else tuple(stages)
+    unknown = [s for s in stages if s not in known]
+    if unknown:
+        raise ValueError(f"stages: unknown {unknown}; expected some of {known}")
+    if isinstance(configs, dict):
+        missing = [s for s in stages if s not in configs]
+        if missing:
+            raise ValueError(f"configs: no TrainConfig for stage(s) {missing}")
+    windows = getattr(data, "train", data)
+    windows = windows.windows if hasattr(windows, "windows") else torch.stack(list(windows))
+    histories = {}
+    for stage in stages:
+        model.set_stage(stage, windows)
+        histories[stage] = train(model, data, configs[stage] if isinstance(configs, dict) else configs)
+    for p in model.parameters():
+        p.requires_grad_(True)
+    return histories
+
+
+
 # ----------------------------------------------------------------------------------------
 # Checkpoints
 # ----------------------------------------------------------------------------------------

@@ -8,7 +8,8 @@ from torch.distributions import Normal, kl_divergence
 
 from motionlab import data, metrics, training
 from motionlab import representation as rep
-from motionlab.models.dfn import DFN, STAGES, DFNConfig, gaussian_kl, train_stages
+from motionlab.models.dfn import DFN, STAGES, DFNConfig, gaussian_kl
+from motionlab.training import train_stages
 
 SMALL = DFNConfig(frame_hidden=32, pose_code=6, velocity_code=2, horizon=4, summary=8, past=16,
                   future=4, current=4, future_prior_hidden=16, current_prior_hidden=16,

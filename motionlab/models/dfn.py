@@ -24,8 +24,8 @@ reconstruction, the future-summary reconstruction, the two KL terms and the TD t
 
 Training is staged as in the paper (§5.6): the frame autoencoder first (stage
 ``"frame"``), then, with it frozen, the dynamics embedding (``"sequence"``), then, with
-both frozen, the dynamics model (``"dynamics"``). :func:`train_stages` runs the three
-with motionlab's one training loop.
+both frozen, the dynamics model (``"dynamics"``). :func:`motionlab.training.train_stages`
+runs the three with motionlab's one training loop.
 
 Where the paper leaves a choice open (its equations were lost from our copy, and several
 sizes are not given) this file makes one and says so in a comment marked *Choice*. All
@@ -323,9 +323,11 @@ class DFN(nn.Module):
     """Chen et al.'s Dynamic Future Net: staged training, stochastic generation from a prefix.
 
     Training: ``set_stage(name)`` then ``loss(batch)`` on windows ``(batch, frames, 66)``
-    (see :func:`train_stages`). Generation: :meth:`generate` from a prefix
+    (see :func:`motionlab.training.train_stages`). Generation: :meth:`generate` from a prefix
     ``(batch, k, 66)`` to any number of frames.
     """
+
+    stages = STAGES                                             # trained in this order (§5.6)
 
     def __init__(self, config: DFNConfig = DFNConfig()):
         super().__init__()
@@ -629,42 +631,3 @@ class DFN(nn.Module):
             return {"frames": motion.to(given_on), "z": stack(zs, c.current).to(given_on),
                     "f": stack(fs, c.future).to(given_on), "x": x.to(given_on)}
         return motion.to(given_on)
-
-
-# ----------------------------------------------------------------------------------------
-# Staged training (§5.6)
-# ----------------------------------------------------------------------------------------
-
-def train_stages(model: DFN, data, configs, stages: tuple[str, ...] = STAGES) -> dict:
-    """Train the stages in order with :func:`motionlab.training.train` (§5.6): the frame
-    autoencoder, then the sequence autoencoder with the frame autoencoder frozen, then the
-    dynamics model with both frozen.
-
-    Args:
-        model: a :class:`DFN`.
-        data: a :class:`motionlab.data.MotionData` (or what ``training.train`` accepts with
-            a ``.train`` set of windows).
-        configs: one :class:`motionlab.training.TrainConfig` for all stages, or a dict from
-            stage name to its config.
-        stages: which stages to run (a later stage needs the earlier ones trained).
-
-    Returns ``{stage: History}``.
-    """
-    from .. import training
-    unknown = [s for s in stages if s not in STAGES]
-    if unknown:
-        raise ValueError(f"stages: unknown {unknown}; expected some of {STAGES}")
-    if isinstance(configs, dict):
-        missing = [s for s in stages if s not in configs]
-        if missing:
-            raise ValueError(f"configs: no TrainConfig for stage(s) {missing}")
-    windows = getattr(data, "train", data)
-    windows = windows.windows if hasattr(windows, "windows") else torch.stack(list(windows))
-    histories = {}
-    for stage in stages:
-        model.set_stage(stage, windows)
-        config = configs[stage] if isinstance(configs, dict) else configs
-        histories[stage] = training.train(model, data, config)
-    for p in model.parameters():
-        p.requires_grad_(True)
-    return histories
