@@ -87,7 +87,7 @@ def run(name: str, source, window_s: float, epochs: dict[str, int]) -> None:
     for index in np.linspace(0, len(test) - 1, PREFIXES).astype(int):
         prefix = test[index:index + 1, :PREFIX].expand(SAMPLES, -1, -1)
         began = time.perf_counter()
-        generated = model.generate(prefix, frames, generator=torch.Generator().manual_seed(int(index)))
+        generated = model.sample(prefix, frames, generator=torch.Generator().manual_seed(int(index)))
         seconds = time.perf_counter() - began
         features = normalizer.denormalize(generated.numpy())
         if not np.isfinite(features).all():

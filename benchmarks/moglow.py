@@ -26,10 +26,10 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from motionlab import data, metrics, synthetic
+from motionlab import data, metrics, pretrained, synthetic
 from motionlab import representation as rep
-from motionlab.models import moglow
-from motionlab.models.moglow import MoGlow, MoGlowConfig, control_following, long_sample_spread
+from motionlab.experiments import control_following, long_sample_spread
+from motionlab.models.moglow import MoGlow, MoGlowConfig
 
 ROOT = Path(__file__).resolve().parents[1]
 TEMPERATURE = 0.3
@@ -40,8 +40,8 @@ def models_for(prepared, config: MoGlowConfig, epochs: int, tag: str, retrain: b
               "Markov, wide": "markov_matched"}
     models = {}
     for label, variant in labels.items():
-        model, history = moglow.train_or_load(prepared, variant, config, epochs, retrain=retrain,
-                                              cache=ROOT / "data" / "cache" / f"moglow_{tag}_{variant}.pt")
+        model, history = pretrained.train_or_load(prepared, variant, config, epochs, retrain=retrain,
+                                                  cache=ROOT / "data" / "cache" / f"moglow_{tag}_{variant}.pt")
         print(f"  {label:12} {len(history.train)} steps, {history.seconds:.0f} s of training")
         models[label] = model
     return models
@@ -63,10 +63,10 @@ def report(name: str, prepared, config: MoGlowConfig, epochs: int, retrain: bool
         nll, nll_m = model.nll(test)["bits/frame"], model.nll(test, normalizer)["bits/frame"]
         row = f"{label:14}{nll:16.1f}{nll_m:10.0f}"
         if model.config.recurrent and len(start):
-            following = control_following(model, normalizer, start, temperature=TEMPERATURE)
-            spread = long_sample_spread(model, normalizer, start[:4], long_path, temperature=TEMPERATURE)
-            walks = model.generate(walk, start, normalizer, n=len(start), temperature=TEMPERATURE)
-            skating = 100 * metrics.foot_skating(np.stack([rep.to_positions(w, config.fps) for w in walks]), config.fps)
+            following = control_following(model, start, temperature=TEMPERATURE)
+            spread = long_sample_spread(model, start[:4], long_path, temperature=TEMPERATURE)
+            walks = model.generate(walk, prefix=start, n=len(start), temperature=TEMPERATURE)
+            skating = 100 * metrics.foot_skating(walks.positions, config.fps)
             row += (f"{'':15}{following['stand still']:7.2f}{following['walk']:7.2f}{'':12}"
                     f"{100 * spread['first']:7.1f}{100 * spread['last']:8.1f}{skating:14.2f}")
         print(row)

@@ -75,14 +75,14 @@ def run(name: str, source, window: int, epochs: int, lstm_epochs: int) -> None:
     vae, paper = models["VAE-LSTM"], models["VAE-LSTM, paper's objective (free_running=0)"]
     lstm, given = models["LSTM-3LR, control predicted"], models["LSTM-3LR, control given"]
     rows = {
-        "LSTM-3LR, no control": (prime, "no", [lstm.predict(test[:, :prime], frames)]),
-        "LSTM-3LR, true control fed back": (prime, "yes", [lstm.predict(test[:, :prime], frames, control)]),
-        "LSTM-3LR trained with control": (prime, "yes", [given.predict(test[:, :prime], frames, control)]),
-        "VAE-LSTM, 4 initial frames": (4, "yes", [vae.generate(control, test[:, :4], generator=generator)
+        "LSTM-3LR, no control": (prime, "no", [lstm.sample(test[:, :prime], frames)]),
+        "LSTM-3LR, true control fed back": (prime, "yes", [lstm.sample(test[:, :prime], frames, control)]),
+        "LSTM-3LR trained with control": (prime, "yes", [given.sample(test[:, :prime], frames, control)]),
+        "VAE-LSTM, 4 initial frames": (4, "yes", [vae.sample(control, test[:, :4], generator=generator)
                                                   for _ in range(SAMPLES)]),
-        "VAE-LSTM, prior sample": (0, "yes", [vae.generate(control, generator=generator) for _ in range(SAMPLES)]),
+        "VAE-LSTM, prior sample": (0, "yes", [vae.sample(control, generator=generator) for _ in range(SAMPLES)]),
         "VAE-LSTM (paper's objective), 4 initial frames": (4, "yes", [
-            paper.generate(control, test[:, :4], generator=generator) for _ in range(SAMPLES)]),
+            paper.sample(control, test[:, :4], generator=generator) for _ in range(SAMPLES)]),
     }
     mean_pose = np.broadcast_to(prepared.normalizer.mean, truth.shape).copy()
     mean_pose[..., rep.CONTROL] = truth[..., rep.CONTROL]

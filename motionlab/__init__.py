@@ -12,8 +12,8 @@ import importlib
 
 __version__ = "0.1.0"
 
-__all__ = ["asfamc", "bvh", "data", "download", "filters", "metrics", "models", "representation",
-           "skeleton", "synthetic", "training", "viz", "widgets"]
+__all__ = ["asfamc", "bvh", "checks", "clip", "data", "download", "experiments", "filters", "metrics", "models",
+           "pretrained", "representation", "rotations", "skeleton", "synthetic", "training", "viz", "widgets"]
 
 
 def __getattr__(name: str):

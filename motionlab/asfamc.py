@@ -58,6 +58,8 @@ import numpy as np
 
 from . import checks
 from .bvh import read_text_lines
+from .clip import INCH_M, Clip
+from .rotations import euler_to_matrix, forward_kinematics
 from .skeleton import LOCOMOTION
 
 ROTATION_DOFS = ("rx", "ry", "rz")
@@ -66,7 +68,6 @@ DOF_NAMES = ROTATION_DOFS + TRANSLATION_DOFS + ("l",)
 """Dof names a bone may list: rotations, translations in its axis frame, ``l`` (stretch)."""
 
 ROOT_CHANNELS = ("TX", "TY", "TZ", "RX", "RY", "RZ")
-INCH_M = 0.0254
 
 ASF_SECTIONS = (":version", ":name", ":units", ":documentation", ":root", ":bonedata",
                 ":hierarchy", ":skin")
@@ -142,7 +143,7 @@ class Bone:
     @property
     def axis_matrix(self) -> np.ndarray:
         """``(3, 3)`` rotation ``C`` of the bone's local frame (columns: its axes in world)."""
-        return euler_matrix(self.axis, self.axis_order)
+        return euler_to_matrix(self.axis, self.axis_order)
 
 
 @dataclass
@@ -225,39 +226,6 @@ class AMC:
     @property
     def n_frames(self) -> int:
         return next(iter(self.values.values())).shape[0] if self.values else 0
-
-
-# --------------------------------------------------------------------------- rotations
-
-def axis_rotations(axis: str, degrees: np.ndarray) -> np.ndarray:
-    """Rotation matrices ``(..., 3, 3)`` about ``axis`` (``"X"``, ``"Y"`` or ``"Z"``) by
-    ``degrees`` (any shape), right-handed; same as :func:`motionlab.bvh.axis_rotation`,
-    filled in place (three times faster, which matters with one call per bone and dof)."""
-    radians = np.deg2rad(np.asarray(degrees, dtype=np.float64))
-    i = "XYZ".index(axis)
-    j, k = (i + 1) % 3, (i + 2) % 3                     # the plane the rotation turns
-    c, s = np.cos(radians), np.sin(radians)
-    out = np.zeros(radians.shape + (3, 3))
-    out[..., i, i] = 1.0
-    out[..., j, j], out[..., j, k] = c, -s
-    out[..., k, j], out[..., k, k] = s, c
-    return out
-
-
-def euler_matrix(degrees: np.ndarray, order: str) -> np.ndarray:
-    """Rotation matrices ``(..., 3, 3)`` from angles ``(..., len(order))`` in degrees.
-
-    The rotations are applied in ``order``, first letter first, to column vectors:
-    ``euler_matrix([a, b, c], "XYZ") == Rz(c) @ Ry(b) @ Rx(a)``. An empty order gives
-    identities.
-    """
-    degrees = np.asarray(degrees, dtype=np.float64)
-    if not order:
-        return np.broadcast_to(np.eye(3), degrees.shape[:-1] + (3, 3)).copy()
-    result = axis_rotations(order[0], degrees[..., 0])
-    for k in range(1, len(order)):
-        result = axis_rotations(order[k], degrees[..., k]) @ result
-    return result
 
 
 # --------------------------------------------------------------------------- ASF
@@ -746,8 +714,8 @@ def _root_transform(asf: ASF, amc: AMC) -> tuple[np.ndarray, np.ndarray]:
     values = amc.values["root"]
     rotation_columns = _dof_columns(asf.root_order, ROTATION_DOFS)
     rotation_order = "".join(asf.root_order[k][1] for k in rotation_columns)     # e.g. "XYZ"
-    motion = euler_matrix(values[:, rotation_columns], rotation_order)
-    axes = euler_matrix(asf.root_orientation, asf.root_axis)
+    motion = euler_to_matrix(values[:, rotation_columns], rotation_order)
+    axes = euler_to_matrix(asf.root_orientation, asf.root_axis)
     position = np.broadcast_to(asf.root_position, (amc.n_frames, 3)).copy()
     for k in _dof_columns(asf.root_order, TRANSLATION_DOFS):
         position[:, "XYZ".index(asf.root_order[k][1])] += values[:, k]
@@ -761,7 +729,7 @@ def _bone_motion(bone: Bone, values: np.ndarray) -> tuple[np.ndarray, np.ndarray
     """
     rotation_columns = _dof_columns(bone.dof, ROTATION_DOFS)
     rotation_order = "".join(bone.dof[k][1] for k in rotation_columns).upper()  # "rx rz" -> "XZ"
-    motion = euler_matrix(values[:, rotation_columns], rotation_order)
+    motion = euler_to_matrix(values[:, rotation_columns], rotation_order)
     translation = np.zeros((len(values), 3))
     for k in _dof_columns(bone.dof, TRANSLATION_DOFS):
         translation[:, "xyz".index(bone.dof[k][1])] += values[:, k]
@@ -776,27 +744,25 @@ def world_transforms(asf: ASF, amc: AMC) -> tuple[np.ndarray, np.ndarray, list[s
 
     Index 0 is the root (its rotation and position); index ``1 + b`` is bone ``b`` of
     ``asf.bones``: its accumulated rotation and the position of its END, file units.
-    Vectorised over frames: one step per bone.
+    Forward kinematics (:func:`motionlab.rotations.forward_kinematics`) with each bone's
+    offset turned by its own rotation; bones without dofs keep their parent's rotation.
     """
     names = ["root"] + asf.bone_names
     index = {name: i for i, name in enumerate(names)}
-    bones = {bone.name: bone for bone in asf.bones}
-    parents = asf.parents
+    parents = np.array([-1] + [index[asf.parents[name]] for name in asf.bone_names])
     frames = amc.n_frames
-    rotations = np.empty((frames, len(names), 3, 3))
-    positions = np.empty((frames, len(names), 3))
-    rotations[:, 0], positions[:, 0] = _root_transform(asf, amc)
-    for name in asf.topological_order():
-        bone, i, p = bones[name], index[name], index[parents[name]]
-        offset = np.broadcast_to(bone.offset, (frames, 3))
+    rotations = np.broadcast_to(np.eye(3), (frames, len(names), 3, 3)).copy()
+    offsets = np.empty((frames, len(names), 3))
+    rotations[:, 0], offsets[:, 0] = _root_transform(asf, amc)
+    for i, bone in enumerate(asf.bones, start=1):
+        offsets[:, i] = bone.offset
         if bone.dof:
             axes = bone.axis_matrix
-            motion, translation = _bone_motion(bone, amc.values[name])
-            rotations[:, i] = rotations[:, p] @ (axes @ motion @ axes.T)
-            offset = offset + translation @ axes.T
-        else:
-            rotations[:, i] = rotations[:, p]
-        positions[:, i] = positions[:, p] + np.einsum("fab,fb->fa", rotations[:, i], offset)
+            motion, translation = _bone_motion(bone, amc.values[bone.name])
+            rotations[:, i] = axes @ motion @ axes.T
+            offsets[:, i] += translation @ axes.T
+    fixed = np.array([False] + [not bone.dof for bone in asf.bones])
+    rotations, positions = forward_kinematics(parents, rotations, offsets, "own", fixed)
     return rotations, positions, names
 
 
@@ -861,10 +827,9 @@ def load_locomotion(amc_path: str | Path, asf_path: str | Path | None = None,
 
 
 def load_clip(amc_path: str | Path, asf_path: str | Path | None = None, fps: float | None = None,
-              source_fps: float = 120.0):
-    """A CMU trial as a :class:`motionlab.data.Clip` (named like ``"16_15"``), resampled to
+              source_fps: float = 120.0) -> Clip:
+    """A CMU trial as a :class:`motionlab.clip.Clip` (named like ``"16_15"``), resampled to
     ``fps`` if given; ``source_fps`` is the capture rate. Ready for ``data.prepare``."""
-    from .data import Clip
     if fps is not None:
         fps = checks.rate(fps, "fps")
     positions, rate = load_locomotion(amc_path, asf_path, checks.rate(source_fps, "source_fps"))

@@ -34,27 +34,11 @@ from pathlib import Path
 import numpy as np
 
 from . import checks
+from .rotations import axis_rotation, forward_kinematics, matrix_to_euler_zyx, y_rotation
 
 POSITION_CHANNELS = ("Xposition", "Yposition", "Zposition")
 ROTATION_CHANNELS = ("Xrotation", "Yrotation", "Zrotation")
 _AXIS = {"X": 0, "Y": 1, "Z": 2}
-
-
-def axis_rotation(axis: str, degrees: np.ndarray) -> np.ndarray:
-    """Rotation matrices ``(..., 3, 3)`` about ``axis`` (``"X"``, ``"Y"`` or ``"Z"``) by
-    ``degrees`` (any shape), right-handed."""
-    radians = np.deg2rad(np.asarray(degrees, dtype=np.float64))
-    c, s = np.cos(radians), np.sin(radians)
-    zero, one = np.zeros_like(c), np.ones_like(c)
-    if axis == "X":
-        rows = [[one, zero, zero], [zero, c, -s], [zero, s, c]]
-    elif axis == "Y":
-        rows = [[c, zero, s], [zero, one, zero], [-s, zero, c]]
-    elif axis == "Z":
-        rows = [[c, -s, zero], [s, c, zero], [zero, zero, one]]
-    else:
-        raise ValueError(f"axis: expected 'X', 'Y' or 'Z', got {axis!r}")
-    return np.stack([np.stack(r, axis=-1) for r in rows], axis=-2)
 
 
 @dataclass
@@ -115,19 +99,10 @@ class BVH:
     def world_transforms(self) -> tuple[np.ndarray, np.ndarray]:
         """World rotations ``(frames, J, 3, 3)`` and positions ``(frames, J, 3)``.
 
-        Forward kinematics, vectorised over frames (one step per joint).
+        Forward kinematics (:func:`motionlab.rotations.forward_kinematics`), offsets in
+        the parent's frame.
         """
-        local_rot, local_pos = self.local_transforms()
-        world_rot = np.empty_like(local_rot)
-        world_pos = np.empty_like(local_pos)
-        for j, p in enumerate(self.parents):
-            if p < 0:
-                world_rot[:, j] = local_rot[:, j]
-                world_pos[:, j] = local_pos[:, j]
-            else:
-                world_rot[:, j] = world_rot[:, p] @ local_rot[:, j]
-                world_pos[:, j] = np.einsum("fab,fb->fa", world_rot[:, p], local_pos[:, j]) + world_pos[:, p]
-        return world_rot, world_pos
+        return forward_kinematics(self.parents, *self.local_transforms())
 
     def world_positions(self, include_end_sites: bool = False) -> np.ndarray:
         """World joint positions ``(frames, J, 3)`` in file units.
@@ -500,14 +475,6 @@ def _swing(rest: np.ndarray, current: np.ndarray) -> np.ndarray:
     return out
 
 
-def _euler_zyx(rotations: np.ndarray) -> np.ndarray:
-    """Angles ``(..., 3)`` in degrees (z, y, x) with ``R = Rz @ Ry @ Rx``."""
-    y = np.arcsin(np.clip(-rotations[..., 2, 0], -1.0, 1.0))
-    z = np.arctan2(rotations[..., 1, 0], rotations[..., 0, 0])
-    x = np.arctan2(rotations[..., 2, 1], rotations[..., 2, 2])
-    return np.rad2deg(np.stack([z, y, x], axis=-1))
-
-
 def from_positions(positions: np.ndarray, fps: float, skeleton=None, unit_m: float = 1.0) -> BVH:
     """Joint positions -> a BVH clip whose forward kinematics gives them back.
 
@@ -515,7 +482,7 @@ def from_positions(positions: np.ndarray, fps: float, skeleton=None, unit_m: flo
         positions: ``(frames, joints, 3)`` world positions in metres (y up) of ``skeleton``
             (default: the 21-joint locomotion skeleton).
         fps: frames per second.
-        unit_m: metres per file unit (``data.CMU_UNIT_M`` writes CMU units).
+        unit_m: metres per file unit (``clip.CMU_UNIT_M`` writes CMU units).
 
     Each bone's rest offset has the bone's mean length, pointing as in frame 0. The root
     carries the position and the character's heading; every other joint turns its bone by
@@ -524,7 +491,7 @@ def from_positions(positions: np.ndarray, fps: float, skeleton=None, unit_m: flo
     children (the hips, the chest) gets one zero-length helper joint per child, named
     ``<child>_base``, as the CMU skeleton has ``LHipJoint``, ``LowerBack`` and so on.
     """
-    from .representation import facing_angles, y_rotation
+    from .representation import facing_angles
     from .skeleton import LOCOMOTION
     skeleton = skeleton or LOCOMOTION
     positions = np.asarray(positions, dtype=np.float64)
@@ -573,7 +540,7 @@ def from_positions(positions: np.ndarray, fps: float, skeleton=None, unit_m: flo
     parent_rot = np.stack([world_rot[:, p] if p >= 0 else np.broadcast_to(np.eye(3), (frames, 3, 3))
                            for p in parents], axis=1)
     local = np.swapaxes(parent_rot, -1, -2) @ world_rot
-    angles = _euler_zyx(local).reshape(frames, -1)
+    angles = matrix_to_euler_zyx(local).reshape(frames, -1)
     motion = np.concatenate([positions[:, root] / unit_m, angles], axis=1)
     channels = [("Xposition", "Yposition", "Zposition", "Zrotation", "Yrotation", "Xrotation")] + \
         [("Zrotation", "Yrotation", "Xrotation")] * (len(names) - 1)

@@ -20,56 +20,16 @@ from typing import Iterable, Sequence
 import numpy as np
 import torch
 
+from . import asfamc, checks
 from . import bvh as bvh_io
-from . import checks
-from .filters import resample
-from .representation import (FACING_SMOOTHING_S, POSE, mirror_features, reverse_features,
-                             to_features)
+from .clip import CMU_UNIT_M, Clip
+from .representation import FACING_SMOOTHING_S, POSE, mirror_features, reverse_features
 from .skeleton import CMU_JOINTS, CMU_TO_LOCOMOTION, LOCOMOTION
-
-CMU_UNIT_M = 0.0254 / 0.45
-"""Metres per CMU length unit (the ASF ``length 0.45``: 1 unit = 1/0.45 inch = 5.644 cm)."""
 
 LOCOMOTION_FROM_CMU = tuple(CMU_JOINTS[i] for i in CMU_TO_LOCOMOTION)
 
 MOTION_SUFFIXES = (".bvh", ".amc")
 """File types :func:`load` reads from a folder (in any letter case: ``.BVH`` too)."""
-
-
-@dataclass
-class Clip:
-    """One motion clip as world positions.
-
-    Attributes:
-        name: short name, e.g. ``"16_15"`` for ``16_15.bvh``.
-        positions: ``(frames, 21, 3)`` locomotion-skeleton joint positions, metres, y up.
-        fps: frames per second.
-        source: where it came from (a file path, or a generator name).
-    """
-
-    name: str
-    positions: np.ndarray
-    fps: float
-    source: str = ""
-
-    @property
-    def n_frames(self) -> int:
-        return self.positions.shape[0]
-
-    @property
-    def duration_s(self) -> float:
-        return self.n_frames / self.fps
-
-    def features(self, facing_smoothing_s: float = FACING_SMOOTHING_S) -> np.ndarray:
-        """The clip in the shared representation, ``(frames, 66)``."""
-        return to_features(self.positions, self.fps, facing_smoothing_s)
-
-    def resampled(self, fps: float) -> "Clip":
-        """This clip at another frame rate (anti-aliased, see :func:`filters.resample`)."""
-        fps = checks.rate(fps, "fps")
-        if fps == self.fps:
-            return self
-        return Clip(self.name, resample(self.positions, self.fps, fps), fps, self.source)
 
 
 def has_tpose_frame(clip: bvh_io.BVH) -> bool:
@@ -178,8 +138,7 @@ def load(source: str | Path | Iterable[str | Path] = "synthetic", fps: float = 2
 
 def _load_file(path: Path, fps: float) -> Clip:
     if path.suffix.lower() == ".amc":
-        from .asfamc import load_clip
-        return load_clip(path, fps=fps)
+        return asfamc.load_clip(path, fps=fps)
     if path.suffix.lower() == ".bvh":
         return load_bvh(path, fps=fps)
     raise ValueError(f"{path}: unknown motion file type (expected .bvh or .amc)")

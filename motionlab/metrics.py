@@ -363,3 +363,15 @@ def fraction_in_range(samples: np.ndarray, reference: np.ndarray,
     slack = margin * (high - low) + atol
     inside = (flat >= low - slack) & (flat <= high + slack)
     return inside.mean(axis=(0, 2))
+
+
+def pca_2d(points: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    """The two main axes of ``points`` ``(n, d)`` (PCA by SVD): their mean ``(d,)``, the
+    axes ``(2, d)`` (unit rows) and the share of the variance they explain. Project with
+    ``(points - mean) @ axes.T``."""
+    points = _check_points(points, "points")
+    if points.shape[1] < 2 or len(points) < 2:
+        raise ValueError(f"points: need at least 2 points of at least 2 dimensions, got {points.shape}")
+    center = points.mean(0)
+    _, singular, axes = np.linalg.svd(points - center, full_matrices=False)
+    return center, axes[:2], float((singular[:2] ** 2).sum() / (singular ** 2).sum())

@@ -31,6 +31,7 @@ import numpy as np
 
 from . import checks
 from .filters import gaussian_smooth
+from .rotations import y_rotation
 from .skeleton import LOCOMOTION, Skeleton
 
 N_POSE = 3 * LOCOMOTION.n_joints
@@ -54,18 +55,6 @@ def _check_positions(positions: np.ndarray, skeleton: Skeleton) -> np.ndarray:
     if len(np.shape(positions)) == 3 and np.shape(positions)[0] == 0:
         raise ValueError("positions: the clip has no frames")
     return checks.array(positions, "positions", ("frames", skeleton.n_joints, 3))
-
-
-def y_rotation(angle: np.ndarray) -> np.ndarray:
-    """Rotation matrices ``(..., 3, 3)`` about the up axis by ``angle`` radians.
-
-    ``y_rotation(a) @ [0, 0, 1] = [sin a, 0, cos a]``: heading ``a`` faces that way.
-    """
-    c, s = np.cos(angle), np.sin(angle)
-    zero, one = np.zeros_like(c), np.ones_like(c)
-    return np.stack([np.stack([c, zero, s], -1),
-                     np.stack([zero, one, zero], -1),
-                     np.stack([-s, zero, c], -1)], -2)
 
 
 def wrap_angle(angle: np.ndarray) -> np.ndarray:

@@ -4,22 +4,26 @@ A control trajectory (forward, sideways and turning velocity per frame: the same
 numbers as the control part of :mod:`motionlab.representation`) drives a walking,
 jogging or running body of 21 joints:
 
-1. **Root path.** The control is integrated into the path of the root on the floor.
-2. **Gait timing.** A stride phase advances at a cadence set by the speed, as in human
-   gait: about 1.6-2.0 steps/s for walking, 2.6-3.0 steps/s for running. Each foot is on
-   the floor (*stance*) for a fraction of the stride: about 62 % when walking (both feet
-   down part of the time), about 36 % when running (a flight phase with both feet up).
-3. **Footsteps.** Each stance places the foot on the floor beside the root's position at
-   mid-stance, and there it stays: the ankle until the heel lifts, then the toes. Between
-   stances the foot swings along a smooth arc to the next footstep.
-4. **Pelvis.** It follows the root with a side-to-side sway and a twist per stride, and
-   rides as high as the legs can reach the planted feet (which gives the walking bob);
-   running adds a bounce, lowest at mid-stance.
-5. **Legs** by two-bone inverse kinematics from each hip to its ankle, knees forward.
-6. **Upper body** by forward kinematics: spine leaning into speed and turns and twisting
-   against the pelvis, a steady head, arms swinging against the legs, elbows bent more
-   when running.
+1. **Root path** (:func:`root_path`). The control is integrated into the path of the
+   root on the floor.
+2. **Gait timing** (:func:`gait_timing`). A stride phase advances at a cadence set by the
+   speed, as in human gait: about 1.6-2.0 steps/s for walking, 2.6-3.0 steps/s for
+   running. Each foot is on the floor (*stance*) for a fraction of the stride: about 62 %
+   when walking (both feet down part of the time), about 36 % when running (a flight
+   phase with both feet up).
+3. **Footsteps** (:func:`footsteps`). Each stance places the foot on the floor beside the
+   root's position at mid-stance, and there it stays: the ankle until the heel lifts,
+   then the toes. Between stances the foot swings along a smooth arc to the next footstep.
+4. **Pelvis** (:func:`pelvis_motion`). It follows the root with a side-to-side sway and a
+   twist per stride, and rides as high as the legs can reach the planted feet (which
+   gives the walking bob); running adds a bounce, lowest at mid-stance.
+5. **Legs** (:func:`legs`) by two-bone inverse kinematics from each hip to its ankle,
+   knees forward.
+6. **Upper body** (:func:`upper_body`) by forward kinematics: spine leaning into speed and
+   turns and twisting against the pelvis, a steady head, arms swinging against the legs,
+   elbows bent more when running.
 
+:func:`generate` runs the six steps in order.
 Every clip draws its own :class:`Body` (proportions within human ranges, constant bone
 lengths) and :class:`Style` (stride, step width, toe-out, arm swing, elbow bend, lean,
 bounce, asymmetry), so models have a distribution to learn rather than one gait cycle.
@@ -33,9 +37,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .bvh import axis_rotation
 from .filters import gaussian_smooth
-from .representation import integrate_control, y_rotation
+from .representation import CONTROL, integrate_control, to_features
+from .rotations import axis_rotation, y_rotation
 from .skeleton import LOCOMOTION
 
 GRAVITY = 9.81
@@ -179,10 +183,6 @@ def _smoothstep(x: np.ndarray) -> np.ndarray:
     return x * x * (3 - 2 * x)
 
 
-def _rot(axis: str, degrees: np.ndarray) -> np.ndarray:
-    return axis_rotation(axis, degrees)
-
-
 def _apply(rotations: np.ndarray, vectors: np.ndarray) -> np.ndarray:
     """``(F, 3, 3) @ (F, 3)`` or ``(F, 3, 3) @ (3,)`` -> ``(F, 3)``."""
     return np.einsum("fab,fb->fa", rotations, np.broadcast_to(vectors, rotations.shape[:-1]))
@@ -215,7 +215,7 @@ def _two_bone_ik(hip: np.ndarray, ankle: np.ndarray, pole: np.ndarray, upper: fl
 
 
 # ----------------------------------------------------------------------------------------
-# The generator
+# The generator: one function per step of the module docstring, all per padded frame
 # ----------------------------------------------------------------------------------------
 
 @dataclass
@@ -238,6 +238,43 @@ class Motion:
     style: Style
 
 
+@dataclass
+class Gait:
+    """Step 2, the gait timing: ``(frames,)`` arrays over the padded clip."""
+
+    t: np.ndarray                 # time, seconds
+    planar: np.ndarray            # horizontal speed, m/s
+    active: np.ndarray            # 0 standing .. 1 moving
+    running: np.ndarray           # 0 walking .. 1 running
+    stance_fraction: np.ndarray   # fraction of a stride each foot is down
+    stride_s: np.ndarray          # seconds per stride (two steps)
+    cycles: np.ndarray            # strides of the left foot so far, from the start phase
+    forwardness: np.ndarray       # 0 .. 1: how much the feet roll heel to toe
+
+
+@dataclass
+class Foot:
+    """Step 3, one foot over the padded clip."""
+
+    stance: np.ndarray            # (frames,) bool, on the floor
+    u: np.ndarray                 # (frames,) where in its stride, 0 .. 1
+    beta: np.ndarray              # (frames,) the stance fraction of that stride
+    swing_u: np.ndarray           # (frames,) how far through the swing, 0 .. 1 (0 in stance)
+    ankle: np.ndarray             # (frames, 3) ankle position, metres
+    rotation: np.ndarray          # (frames, 3, 3) the foot's rotation (flat, facing +z: identity)
+
+
+@dataclass
+class Pelvis:
+    """Step 4, the pelvis over the padded clip."""
+
+    hips: np.ndarray              # (frames, 3) the Hips joint, metres
+    rotation: np.ndarray          # (frames, 3, 3)
+    hip_offsets: dict             # "Left"/"Right" -> (frames, 3) hip joint minus hips, metres
+    twist: np.ndarray             # (frames,) about the vertical, degrees, left hip forward
+    list_angle: np.ndarray        # (frames,) sideways tilt, degrees
+
+
 def cadence_steps_per_s(speed: np.ndarray, run_blend: np.ndarray) -> np.ndarray:
     """Steps per second at forward ``speed`` (m/s), blending walking (0) and running (1).
 
@@ -247,6 +284,225 @@ def cadence_steps_per_s(speed: np.ndarray, run_blend: np.ndarray) -> np.ndarray:
     walk = 1.5 + 0.22 * np.minimum(speed, 2.0)
     run = 2.5 + 0.1 * np.minimum(speed, 5.0)
     return (1 - run_blend) * walk + run_blend * run
+
+
+def padding_frames(fps: float) -> int:
+    """Frames of padding either side of the clip (a second), so footsteps exist at the edges."""
+    return int(np.ceil(fps))
+
+
+def root_path(control: np.ndarray, fps: float, start: np.ndarray | None = None
+              ) -> tuple[np.ndarray, np.ndarray]:
+    """Step 1: the control padded by :func:`padding_frames` either side (repeating its
+    first and last frame), ``(frames, 3)``, and the root ``(x, z, heading)`` per padded
+    frame, ``(frames, 3)``, placed so that the clip's first frame is at ``start``."""
+    pad = padding_frames(fps)
+    padded = np.pad(control, ((pad, pad), (0, 0)), mode="edge")
+    root = integrate_control(padded, fps)
+    start = np.zeros(3) if start is None else np.asarray(start, dtype=np.float64)
+    turn = start[2] - root[pad, 2]                              # move the path rigidly so
+    rel = np.stack([root[:, 0] - root[pad, 0], np.zeros(len(root)), root[:, 1] - root[pad, 1]], -1)
+    rel = rel @ y_rotation(turn).T                              # that frame `pad` is `start`
+    root = np.stack([start[0] + rel[:, 0], start[1] + rel[:, 2], root[:, 2] + turn], -1)
+    return padded, root
+
+
+def gait_timing(padded: np.ndarray, fps: float, style: Style, phase: float = 0.0) -> Gait:
+    """Step 2: how active (0 standing .. 1 moving), how much running, and the stride phase
+    (starting at ``phase`` strides) for the padded control ``(frames, 3)``."""
+    forward, sideways, turning = padded.T
+    smooth = lambda x: gaussian_smooth(x, 0.15 * fps)  # noqa: E731
+    planar = np.hypot(forward, sideways)
+    active = smooth(_smoothstep(np.maximum(planar / 0.5, np.abs(turning) / 0.8)))
+    running = smooth(_smoothstep((forward - style.run_speed + 0.3) / 0.6))
+    cadence = style.cadence * cadence_steps_per_s(planar, running)
+    stance_fraction = ((1 - running) * (0.64 - 0.02 * np.minimum(planar, 2.0))
+                       + running * (0.40 - 0.025 * np.minimum(planar, 5.0)))
+    stride_s = 2.0 / cadence
+    cycles = phase + np.concatenate([[0.0], np.cumsum(0.5 * (cadence[1:] + cadence[:-1]) / 2 / fps)])
+    forwardness = smooth(_smoothstep(forward / 1.0))          # heel-toe roll when going forwards
+    return Gait(np.arange(len(padded)) / fps, planar, active, running, stance_fraction, stride_s,
+                cycles, forwardness)
+
+
+def footsteps(root: np.ndarray, padded: np.ndarray, gait: Gait, body: Body,
+              style: Style) -> dict[str, Foot]:
+    """Step 3: both feet (``"Left"``, ``"Right"``), the right half a stride after the left.
+
+    Each stance plants the foot beside the root at mid-stance, wider when side-stepping
+    so the feet never cross, turned out by the style's toe-out; it stays there, the ankle
+    until the heel lifts, then the toes. Between stances the foot swings along a smooth arc.
+    """
+    t, sideways = gait.t, padded[:, 1]
+
+    def at(times: np.ndarray, values: np.ndarray) -> np.ndarray:
+        return np.interp(times, t, values)
+
+    feet = {}
+    for side, sign, offset in (("Left", 1.0, 0.0), ("Right", -1.0, 0.5)):
+        c = gait.cycles + offset                                # this foot's stride count
+        k = np.floor(c).astype(int)
+        u = c - k                                               # 0..1 within the stride
+        first = k.min() - 1
+        cycle_ids = np.arange(first, k.max() + 3)
+        # times of each cycle's start and mid-stance (extrapolated past the padded clip)
+        slope = 1.0 / (c[-1] - c[0]) * (t[-1] - t[0])
+        cycle_t = np.interp(cycle_ids, c, t, left=np.nan, right=np.nan)
+        cycle_t = np.where(np.isnan(cycle_t), t[0] + (cycle_ids - c[0]) * slope, cycle_t)
+        beta_k = at(cycle_t, gait.stance_fraction)
+        # the foot is under the hips a little before mid-stance when running
+        under = beta_k * (0.5 - 0.12 * at(cycle_t, gait.running))
+        mid_t = np.interp(cycle_ids + under, c, t, left=np.nan, right=np.nan)
+        mid_t = np.where(np.isnan(mid_t), t[0] + (cycle_ids + under - c[0]) * slope, mid_t)
+        mid_t = np.clip(mid_t, t[0], t[-1])
+
+        # where each footstep is, how the foot is turned there
+        heading_k = at(mid_t, root[:, 2])
+        half_width = style.step_width / 2 + np.abs(at(mid_t, sideways)) * at(mid_t, gait.stride_s) / 4
+        lateral = np.stack([sign * half_width, np.zeros_like(half_width), np.zeros_like(half_width)], -1)
+        plant = np.stack([at(mid_t, root[:, 0]), np.zeros_like(mid_t), at(mid_t, root[:, 1])], -1)
+        plant += _apply(y_rotation(heading_k), lateral)
+        plant[:, 1] = body.ankle_height
+        yaw_k = np.rad2deg(heading_k) + sign * style.toe_out
+        roll = at(mid_t, gait.forwardness) * at(mid_t, gait.active)
+        strike_k = -12.0 * roll                                  # toes up at heel strike
+        lift_k = (30.0 + 25.0 * at(mid_t, gait.running)) * roll  # heel up at toe-off
+        foot_rot_k = axis_rotation("Y", yaw_k)
+        toe_plant = plant + _apply(foot_rot_k, body.toe_offset)
+        lift_ankle = toe_plant - _apply(foot_rot_k @ axis_rotation("X", lift_k), body.toe_offset)
+
+        i = k - first                                            # index of this frame's cycle
+        beta = beta_k[i]
+        stance = u < beta
+        # stance: flat then heel rising about the toe (the planted joints stay put)
+        us = np.clip(u / beta, 0, 1)
+        heel_off = us > 0.55
+        pitch_stance = np.where(us < 0.25, strike_k[i] * (1 - us / 0.25), 0.0)
+        pitch_stance = np.where(heel_off, lift_k[i] * ((us - 0.55) / 0.45) ** 2, pitch_stance)
+        stance_rot = axis_rotation("Y", yaw_k[i]) @ axis_rotation("X", pitch_stance)
+        ankle_stance = np.where(heel_off[:, None], toe_plant[i] - _apply(stance_rot, body.toe_offset),
+                                plant[i])
+        # swing: lift-off ankle -> next footstep along a smooth arc
+        uw = np.clip((u - beta) / (1 - beta), 0, 1)
+        s = 0.5 - 0.5 * np.cos(np.pi * uw)
+        ankle_swing = lift_ankle[i] + s[:, None] * (plant[i + 1] - lift_ankle[i])
+        lift_height = (0.07 + 0.2 * gait.running) * style.clearance * gait.active
+        peak_early = uw ** (1 - 0.35 * gait.running)           # running: heel kicks up behind
+        ankle_swing[:, 1] += lift_height * np.sin(np.pi * peak_early) ** 1.5
+        pitch_swing = lift_k[i] + s * (strike_k[i + 1] - lift_k[i])
+        yaw_swing = yaw_k[i] + s * (yaw_k[i + 1] - yaw_k[i])
+        swing_rot = axis_rotation("Y", yaw_swing) @ axis_rotation("X", pitch_swing)
+
+        feet[side] = Foot(stance, u, beta, np.where(stance, 0.0, uw),
+                          np.where(stance[:, None], ankle_stance, ankle_swing),
+                          np.where(stance[:, None, None], stance_rot, swing_rot))
+    return feet
+
+
+def pelvis_motion(root: np.ndarray, gait: Gait, feet: dict[str, Foot], body: Body,
+                  style: Style) -> Pelvis:
+    """Step 4: the pelvis sways towards the stance foot, twists with the legs, lists, and
+    rides as high as the legs reach the planted feet (the walking bob), plus a bounce."""
+    frames = len(root)
+    active, running, planar = gait.active, gait.running, gait.planar
+    left_u, beta = feet["Left"].u, gait.stance_fraction
+    stride_wave = np.cos(2 * np.pi * (left_u - beta / 2))      # +1 at left mid-stance
+    step_wave = np.cos(4 * np.pi * (left_u - beta / 2))        # +1 at each mid-stance
+    sway = 0.025 * style.sway * active * (1 - 0.6 * running) * stride_wave
+    twist = -5.0 * style.sway * active * np.cos(2 * np.pi * left_u)   # degrees, left hip forward
+    tilt = 6.0 + 2.0 * running
+    list_ = 3.0 * style.sway * active * stride_wave
+    pelvis_rot = (axis_rotation("Y", np.rad2deg(root[:, 2]) + twist)
+                  @ axis_rotation("X", np.broadcast_to(tilt, twist.shape)) @ axis_rotation("Z", list_))
+    pelvis_xz = np.stack([root[:, 0], np.zeros(frames), root[:, 1]], -1) + _apply(
+        y_rotation(root[:, 2]), np.stack([sway, np.zeros(frames), np.zeros(frames)], -1))
+    hip_local = {side: np.array(body.hip_offset) * [sign, 1, 1]
+                 for side, sign in (("Left", 1.0), ("Right", -1.0))}
+    hip_from_pelvis = {side: _apply(pelvis_rot, off) for side, off in hip_local.items()}
+    reach = style.knee_reach * body.leg_length
+    highest = []
+    for side in ("Left", "Right"):
+        hip_xz = pelvis_xz + hip_from_pelvis[side] * [1, 0, 1]
+        ankle = feet[side].ankle
+        horizontal = np.linalg.norm((ankle - hip_xz)[:, [0, 2]], axis=-1)
+        vertical = np.sqrt(np.maximum(reach ** 2 - horizontal ** 2, 0.01))
+        # a swinging leg can bend its knee: it only holds the pelvis down near touchdown
+        # and lift-off, so the constraint fades in and out smoothly
+        slack = 0.4 * active * np.sin(np.pi * feet[side].swing_u) ** 2
+        highest.append(ankle[:, 1] + vertical - hip_from_pelvis[side][:, 1] + slack)
+    standing = body.ankle_height + reach - hip_local["Left"][1]
+    crouch = 0.03 * running + 0.01 * np.minimum(planar, 1.5) * (1 - running)
+    bounce = style.bounce * active * (0.012 * (1 - running) * step_wave - 0.035 * running * step_wave)
+    pelvis_y = _soft_min(standing - crouch + bounce, *highest)
+    hips = pelvis_xz + pelvis_y[:, None] * [0, 1, 0]
+    return Pelvis(hips, pelvis_rot, hip_from_pelvis, twist, list_)
+
+
+def legs(pelvis: Pelvis, feet: dict[str, Foot], body: Body) -> tuple[dict[str, np.ndarray], np.ndarray]:
+    """Step 5: the leg joints by two-bone inverse kinematics from each hip to its ankle,
+    knees pointing where the foot and pelvis point. Returns joint name -> ``(frames, 3)``
+    (hips, knees, ankles, toes) and the contacts ``(frames, 2)`` (left, right in stance)."""
+    joints = {}
+    contacts = np.zeros((len(pelvis.hips), 2), dtype=bool)
+    for n, side in enumerate(("Left", "Right")):
+        foot = feet[side]
+        hip = pelvis.hips + pelvis.hip_offsets[side]
+        foot_forward = _apply(foot.rotation, np.array([0.0, 0.0, 1.0]))
+        pole = foot_forward + _apply(pelvis.rotation, np.array([0.0, 0.0, 1.0]))
+        knee, ankle = _two_bone_ik(hip, foot.ankle, pole, body.thigh, body.shin)
+        joints[f"{side}UpLeg"], joints[f"{side}Leg"], joints[f"{side}Foot"] = hip, knee, ankle
+        joints[f"{side}ToeBase"] = ankle + _apply(foot.rotation, body.toe_offset)
+        contacts[:, n] = foot.stance
+    return joints, contacts
+
+
+def upper_body(root: np.ndarray, padded: np.ndarray, gait: Gait, pelvis: Pelvis,
+               feet: dict[str, Foot], body: Body, style: Style) -> dict[str, np.ndarray]:
+    """Step 6: spine, head and arm joints by forward kinematics, joint name -> ``(frames, 3)``.
+
+    The spine leans into speed and turns and twists against the pelvis, the head stays
+    steady, the arms swing against the legs with elbows bent more when running.
+    """
+    forward, _, turning = padded.T
+    planar, running, active = gait.planar, gait.running, gait.active
+    twist, list_, hips = pelvis.twist, pelvis.list_angle, pelvis.hips
+    heading_deg = np.rad2deg(root[:, 2])
+    speed_lean = (2.0 + 1.5 * np.minimum(planar, 2.0)) * (1 - running) + (5.0 + 1.5 * planar) * running
+    lean = (speed_lean * np.sign(forward + 1e-9) * (forward > -0.1) + style.lean)
+    turn_lean = np.rad2deg(np.arctan(forward * turning / GRAVITY)) * 0.7   # into the turn
+    counter = -0.8 * twist                                       # chest twists against pelvis
+    lumbar_rot = (axis_rotation("Y", heading_deg + 0.3 * twist) @ axis_rotation("X", 0.5 * lean)
+                  @ axis_rotation("Z", -0.5 * turn_lean + 0.3 * list_))
+    chest_rot = (axis_rotation("Y", heading_deg + counter) @ axis_rotation("X", lean)
+                 @ axis_rotation("Z", -turn_lean))
+    neck_rot = (axis_rotation("Y", heading_deg + 0.3 * counter) @ axis_rotation("X", 0.4 * lean)
+                @ axis_rotation("Z", -0.3 * turn_lean))
+    head_rot = axis_rotation("Y", heading_deg) @ axis_rotation("X", -4.0 + 0.2 * lean)
+    up = np.array([0.0, 1.0, 0.0])
+    spine = hips + _apply(lumbar_rot, body.lower_back * up)
+    chest = spine + _apply(chest_rot, body.upper_back * up)
+    neck = chest + _apply(neck_rot, body.neck * up)
+    joints = {"Spine": spine, "Spine1": chest, "Neck1": neck,
+              "Head": neck + _apply(head_rot, body.head * np.array([0.0, 0.97, 0.25]))}
+
+    amplitude = active * style.arm_swing * ((1 - running) * (8.0 + 9.0 * np.minimum(planar, 2.0))
+                                            + running * (28.0 + 4.0 * planar))
+    elbow = 12.0 + style.elbow_bend + running * 75.0
+    for side, sign, asym in (("Left", 1.0, 1 + style.asymmetry), ("Right", -1.0, 1 - style.asymmetry)):
+        swing = asym * amplitude * np.cos(2 * np.pi * (feet[side].u - feet[side].beta))   # forward +
+        swing *= np.sign(forward + 0.3)                      # arms follow the legs backwards too
+        abduct = sign * (6.0 + 6.0 * running)
+        flex = elbow + 0.4 * np.maximum(swing, 0)
+        shoulder = chest + _apply(chest_rot, np.array(body.shoulder_offset) * [sign, 1, 1])
+        upper_rot = (chest_rot @ axis_rotation("X", -swing)
+                     @ axis_rotation("Z", np.broadcast_to(abduct, swing.shape)))
+        fore_rot = upper_rot @ axis_rotation("X", -flex)
+        hand_rot = fore_rot @ axis_rotation("X", np.broadcast_to(-10.0, swing.shape))
+        elbow_pos = shoulder + _apply(upper_rot, -body.upper_arm * up)
+        wrist = elbow_pos + _apply(fore_rot, -body.forearm * up)
+        joints[f"{side}Arm"], joints[f"{side}ForeArm"], joints[f"{side}Hand"] = shoulder, elbow_pos, wrist
+        joints[f"{side}HandIndex1"] = wrist + _apply(hand_rot, -body.hand * up)
+    return joints
 
 
 def generate(control: np.ndarray, fps: float, body: Body | None = None,
@@ -260,6 +516,9 @@ def generate(control: np.ndarray, fps: float, body: Body | None = None,
         body, style: default :class:`Body` and :class:`Style` if not given.
         start: root ``(x, z, heading)`` at the first frame (default the origin facing +z).
         phase: where in the stride the clip starts, in strides (0-1).
+
+    Runs the six steps of the module docstring on the control padded by a second either
+    side, then cuts the padding off. Draws no random numbers.
     """
     control = np.asarray(control, dtype=np.float64)
     if control.ndim != 2 or control.shape[1] != 3 or len(control) < 2:
@@ -271,184 +530,17 @@ def generate(control: np.ndarray, fps: float, body: Body | None = None,
     body = body or Body()
     style = style or Style()
 
-    # 1. Root path, with a second of padding either side so footsteps exist at the edges.
-    pad = int(np.ceil(fps))
-    padded = np.pad(control, ((pad, pad), (0, 0)), mode="edge")
-    root = integrate_control(padded, fps)
-    start = np.zeros(3) if start is None else np.asarray(start, dtype=np.float64)
-    turn = start[2] - root[pad, 2]                              # move the path rigidly so
-    rel = np.stack([root[:, 0] - root[pad, 0], np.zeros(len(root)), root[:, 1] - root[pad, 1]], -1)
-    rel = rel @ y_rotation(turn).T                              # that frame `pad` is `start`
-    root = np.stack([start[0] + rel[:, 0], start[1] + rel[:, 2], root[:, 2] + turn], -1)
-    frames = len(padded)
-    t = np.arange(frames) / fps
-    forward, sideways, turning = padded.T
+    padded, root = root_path(control, fps, start)
+    gait = gait_timing(padded, fps, style, phase)
+    feet = footsteps(root, padded, gait, body, style)
+    pelvis = pelvis_motion(root, gait, feet, body, style)
+    leg_joints, contacts = legs(pelvis, feet, body)
+    joints = {"Hips": pelvis.hips} | leg_joints | upper_body(root, padded, gait, pelvis, feet, body, style)
 
-    # 2. Gait timing: how active (0 standing .. 1 moving), how much running, the phase.
-    smooth = lambda x: gaussian_smooth(x, 0.15 * fps)  # noqa: E731
-    planar = np.hypot(forward, sideways)
-    active = smooth(_smoothstep(np.maximum(planar / 0.5, np.abs(turning) / 0.8)))
-    running = smooth(_smoothstep((forward - style.run_speed + 0.3) / 0.6))
-    cadence = style.cadence * cadence_steps_per_s(planar, running)
-    stance_fraction = ((1 - running) * (0.64 - 0.02 * np.minimum(planar, 2.0))
-                       + running * (0.40 - 0.025 * np.minimum(planar, 5.0)))
-    stride_s = 2.0 / cadence
-    cycles = phase + np.concatenate([[0.0], np.cumsum(0.5 * (cadence[1:] + cadence[:-1]) / 2 / fps)])
-    forwardness = smooth(_smoothstep(forward / 1.0))          # heel-toe roll when going forwards
-    heading_dir = y_rotation(root[:, 2])
-
-    def at(times: np.ndarray, values: np.ndarray) -> np.ndarray:
-        return np.interp(times, t, values)
-
-    feet = {}
-    for side, sign, offset in (("Left", 1.0, 0.0), ("Right", -1.0, 0.5)):
-        c = cycles + offset                                     # this foot's stride count
-        k = np.floor(c).astype(int)
-        u = c - k                                               # 0..1 within the stride
-        first = k.min() - 1
-        cycle_ids = np.arange(first, k.max() + 3)
-        # times of each cycle's start and mid-stance (extrapolated past the padded clip)
-        slope = 1.0 / (c[-1] - c[0]) * (t[-1] - t[0])
-        cycle_t = np.interp(cycle_ids, c, t, left=np.nan, right=np.nan)
-        cycle_t = np.where(np.isnan(cycle_t), t[0] + (cycle_ids - c[0]) * slope, cycle_t)
-        beta_k = at(cycle_t, stance_fraction)
-        # the foot is under the hips a little before mid-stance when running
-        under = beta_k * (0.5 - 0.12 * at(cycle_t, running))
-        mid_t = np.interp(cycle_ids + under, c, t, left=np.nan, right=np.nan)
-        mid_t = np.where(np.isnan(mid_t), t[0] + (cycle_ids + under - c[0]) * slope, mid_t)
-        mid_t = np.clip(mid_t, t[0], t[-1])
-
-        # 3. Footsteps: beside the root at mid-stance, wider when side-stepping so the
-        # feet never cross, turned out by the style's toe-out.
-        heading_k = at(mid_t, root[:, 2])
-        half_width = style.step_width / 2 + np.abs(at(mid_t, sideways)) * at(mid_t, stride_s) / 4
-        lateral = np.stack([sign * half_width, np.zeros_like(half_width), np.zeros_like(half_width)], -1)
-        plant = np.stack([at(mid_t, root[:, 0]), np.zeros_like(mid_t), at(mid_t, root[:, 1])], -1)
-        plant += _apply(y_rotation(heading_k), lateral)
-        plant[:, 1] = body.ankle_height
-        yaw_k = np.rad2deg(heading_k) + sign * style.toe_out
-        roll = at(mid_t, forwardness) * at(mid_t, active)
-        strike_k = -12.0 * roll                                  # toes up at heel strike
-        lift_k = (30.0 + 25.0 * at(mid_t, running)) * roll       # heel up at toe-off
-        foot_rot_k = _rot("Y", yaw_k)
-        toe_plant = plant + _apply(foot_rot_k, body.toe_offset)
-        lift_ankle = toe_plant - _apply(foot_rot_k @ _rot("X", lift_k), body.toe_offset)
-
-        i = k - first                                            # index of this frame's cycle
-        beta = beta_k[i]
-        stance = u < beta
-        # stance: flat then heel rising about the toe (the planted joints stay put)
-        us = np.clip(u / beta, 0, 1)
-        heel_off = us > 0.55
-        pitch_stance = np.where(us < 0.25, strike_k[i] * (1 - us / 0.25), 0.0)
-        pitch_stance = np.where(heel_off, lift_k[i] * ((us - 0.55) / 0.45) ** 2, pitch_stance)
-        stance_rot = _rot("Y", yaw_k[i]) @ _rot("X", pitch_stance)
-        ankle_stance = np.where(heel_off[:, None], toe_plant[i] - _apply(stance_rot, body.toe_offset),
-                                plant[i])
-        # swing: lift-off ankle -> next footstep along a smooth arc
-        uw = np.clip((u - beta) / (1 - beta), 0, 1)
-        s = 0.5 - 0.5 * np.cos(np.pi * uw)
-        ankle_swing = lift_ankle[i] + s[:, None] * (plant[i + 1] - lift_ankle[i])
-        lift_height = (0.07 + 0.2 * running) * style.clearance * active
-        peak_early = uw ** (1 - 0.35 * running)                # running: heel kicks up behind
-        ankle_swing[:, 1] += lift_height * np.sin(np.pi * peak_early) ** 1.5
-        pitch_swing = lift_k[i] + s * (strike_k[i + 1] - lift_k[i])
-        yaw_swing = yaw_k[i] + s * (yaw_k[i + 1] - yaw_k[i])
-        swing_rot = _rot("Y", yaw_swing) @ _rot("X", pitch_swing)
-
-        feet[side] = {
-            "stance": stance, "u": u, "beta": beta, "swing_u": np.where(stance, 0.0, uw),
-            "ankle": np.where(stance[:, None], ankle_stance, ankle_swing),
-            "foot_rot": np.where(stance[:, None, None], stance_rot, swing_rot),
-        }
-
-    # 4. Pelvis: sway towards the stance foot, twist with the legs, list, bob and bounce.
-    left_u, beta = feet["Left"]["u"], stance_fraction
-    stride_wave = np.cos(2 * np.pi * (left_u - beta / 2))      # +1 at left mid-stance
-    step_wave = np.cos(4 * np.pi * (left_u - beta / 2))        # +1 at each mid-stance
-    sway = 0.025 * style.sway * active * (1 - 0.6 * running) * stride_wave
-    twist = -5.0 * style.sway * active * np.cos(2 * np.pi * left_u)   # degrees, left hip forward
-    tilt = 6.0 + 2.0 * running
-    list_ = 3.0 * style.sway * active * stride_wave
-    pelvis_rot = (_rot("Y", np.rad2deg(root[:, 2]) + twist) @ _rot("X", np.broadcast_to(tilt, twist.shape))
-                  @ _rot("Z", list_))
-    pelvis_xz = np.stack([root[:, 0], np.zeros(frames), root[:, 1]], -1) + _apply(
-        heading_dir, np.stack([sway, np.zeros(frames), np.zeros(frames)], -1))
-    hip_local = {side: np.array(body.hip_offset) * [sign, 1, 1]
-                 for side, sign in (("Left", 1.0), ("Right", -1.0))}
-    hip_from_pelvis = {side: _apply(pelvis_rot, off) for side, off in hip_local.items()}
-    reach = style.knee_reach * body.leg_length
-    highest = []
-    for side in ("Left", "Right"):
-        hip_xz = pelvis_xz + hip_from_pelvis[side] * [1, 0, 1]
-        ankle = feet[side]["ankle"]
-        horizontal = np.linalg.norm((ankle - hip_xz)[:, [0, 2]], axis=-1)
-        vertical = np.sqrt(np.maximum(reach ** 2 - horizontal ** 2, 0.01))
-        # a swinging leg can bend its knee: it only holds the pelvis down near touchdown
-        # and lift-off, so the constraint fades in and out smoothly
-        slack = 0.4 * active * np.sin(np.pi * feet[side]["swing_u"]) ** 2
-        highest.append(ankle[:, 1] + vertical - hip_from_pelvis[side][:, 1] + slack)
-    standing = body.ankle_height + reach - hip_local["Left"][1]
-    crouch = 0.03 * running + 0.01 * np.minimum(planar, 1.5) * (1 - running)
-    bounce = style.bounce * active * (0.012 * (1 - running) * step_wave - 0.035 * running * step_wave)
-    pelvis_y = _soft_min(standing - crouch + bounce, *highest)
-    hips = pelvis_xz + pelvis_y[:, None] * [0, 1, 0]
-
-    positions = np.zeros((frames, 21, 3))
-    positions[:, J["Hips"]] = hips
-
-    # 5. Legs by inverse kinematics, knees pointing where the foot points.
-    contacts = np.zeros((frames, 2), dtype=bool)
-    for n, side in enumerate(("Left", "Right")):
-        hip = hips + hip_from_pelvis[side]
-        foot_forward = _apply(feet[side]["foot_rot"], np.array([0.0, 0.0, 1.0]))
-        pole = foot_forward + _apply(pelvis_rot, np.array([0.0, 0.0, 1.0]))
-        knee, ankle = _two_bone_ik(hip, feet[side]["ankle"], pole, body.thigh, body.shin)
-        positions[:, J[f"{side}UpLeg"]] = hip
-        positions[:, J[f"{side}Leg"]] = knee
-        positions[:, J[f"{side}Foot"]] = ankle
-        positions[:, J[f"{side}ToeBase"]] = ankle + _apply(feet[side]["foot_rot"], body.toe_offset)
-        contacts[:, n] = feet[side]["stance"]
-
-    # 6. Upper body by forward kinematics.
-    heading_deg = np.rad2deg(root[:, 2])
-    speed_lean = (2.0 + 1.5 * np.minimum(planar, 2.0)) * (1 - running) + (5.0 + 1.5 * planar) * running
-    lean = (speed_lean * np.sign(forward + 1e-9) * (forward > -0.1) + style.lean)
-    turn_lean = np.rad2deg(np.arctan(forward * turning / GRAVITY)) * 0.7   # into the turn
-    counter = -0.8 * twist                                       # chest twists against pelvis
-    lumbar_rot = (_rot("Y", heading_deg + 0.3 * twist) @ _rot("X", 0.5 * lean)
-                  @ _rot("Z", -0.5 * turn_lean + 0.3 * list_))
-    chest_rot = _rot("Y", heading_deg + counter) @ _rot("X", lean) @ _rot("Z", -turn_lean)
-    neck_rot = _rot("Y", heading_deg + 0.3 * counter) @ _rot("X", 0.4 * lean) @ _rot("Z", -0.3 * turn_lean)
-    head_rot = _rot("Y", heading_deg) @ _rot("X", -4.0 + 0.2 * lean)
-    up = np.array([0.0, 1.0, 0.0])
-    spine = hips + _apply(lumbar_rot, body.lower_back * up)
-    chest = spine + _apply(chest_rot, body.upper_back * up)
-    neck = chest + _apply(neck_rot, body.neck * up)
-    positions[:, J["Spine"]], positions[:, J["Spine1"]], positions[:, J["Neck1"]] = spine, chest, neck
-    positions[:, J["Head"]] = neck + _apply(head_rot, body.head * np.array([0.0, 0.97, 0.25]))
-
-    amplitude = active * style.arm_swing * ((1 - running) * (8.0 + 9.0 * np.minimum(planar, 2.0))
-                                            + running * (28.0 + 4.0 * planar))
-    elbow = 12.0 + style.elbow_bend + running * 75.0
-    for side, sign, asym in (("Left", 1.0, 1 + style.asymmetry), ("Right", -1.0, 1 - style.asymmetry)):
-        foot_u = feet[side]["u"]
-        swing = asym * amplitude * np.cos(2 * np.pi * (foot_u - feet[side]["beta"]))   # forward +
-        swing *= np.sign(forward + 0.3)                      # arms follow the legs backwards too
-        abduct = sign * (6.0 + 6.0 * running)
-        flex = elbow + 0.4 * np.maximum(swing, 0)
-        shoulder = chest + _apply(chest_rot, np.array(body.shoulder_offset) * [sign, 1, 1])
-        upper_rot = chest_rot @ _rot("X", -swing) @ _rot("Z", np.broadcast_to(abduct, swing.shape))
-        fore_rot = upper_rot @ _rot("X", -flex)
-        hand_rot = fore_rot @ _rot("X", np.broadcast_to(-10.0, swing.shape))
-        elbow_pos = shoulder + _apply(upper_rot, -body.upper_arm * up)
-        wrist = elbow_pos + _apply(fore_rot, -body.forearm * up)
-        positions[:, J[f"{side}Arm"]] = shoulder
-        positions[:, J[f"{side}ForeArm"]] = elbow_pos
-        positions[:, J[f"{side}Hand"]] = wrist
-        positions[:, J[f"{side}HandIndex1"]] = wrist + _apply(hand_rot, -body.hand * up)
-
-    keep = slice(pad, frames - pad)
+    positions = np.zeros((len(padded), len(J), 3))
+    for name, position in joints.items():
+        positions[:, J[name]] = position
+    keep = slice(padding_frames(fps), len(padded) - padding_frames(fps))
     return Motion(positions[keep], control, contacts[keep], fps, body, style)
 
 
@@ -491,7 +583,6 @@ def walked_control(control: np.ndarray, fps: float, body: Body | None = None,
     """The control ``(frames, 3)`` of the synthetic walker following ``control``: the same
     path, with the stride-by-stride wobble of real locomotion (the hips sway and surge
     with each step). Control-driven models learn to read step timing from that wobble."""
-    from .representation import CONTROL, to_features
     return to_features(generate(control, fps, body, style).positions, fps)[:, CONTROL]
 
 

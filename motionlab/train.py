@@ -2,10 +2,15 @@
 
     python -m motionlab.train conv_ae                             # synthetic data, laptop size
     python -m motionlab.train conv_ae --data path/to/cmu/bvh --set window=20
-    python -m motionlab.train conv_ae --paper --epochs 200 --device cuda --out runs/conv_ae.pt
+    python -m motionlab.train conv_ae --paper --device cuda --out runs/conv_ae.pt
+    python -m motionlab.train vae --conv-ae conv_ae.pt            # Motegi's VAE on its features
+    python -m motionlab.train dfn --stage-epochs frame=15 sequence=15 dynamics=30 --lr 3e-3
+    python -m motionlab.train moglow --paper --max-steps 1000     # the paper's schedule, cut short
 
 The model's config decides the frame rate and window length of the data; ``--set
-name=value`` changes any config field. A GPU is used when there is one (``--device``).
+name=value`` changes any config field. ``--paper`` takes the paper's architecture
+(``Config.paper()``) and training schedule (:data:`PAPER_SCHEDULES`); options given on
+the command line win over both. A GPU is used when there is one (``--device``).
 The checkpoint holds the weights, config, normaliser and data description, and loads
 with ``motionlab.training.load_checkpoint``.
 """
@@ -14,15 +19,123 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import importlib
+import math
 import sys
 from pathlib import Path
+from typing import Any, NamedTuple
 
 import torch
 
 from . import checks, data, training
 from .models import MODELS
 
+DFN_STAGES = ("frame", "sequence", "dynamics")          # motionlab.models.dfn.STAGES (§5.6)
+
+# ----------------------------------------------------------------------------------------
+# What each paper publishes about training, and what we choose where it is silent
+# ----------------------------------------------------------------------------------------
+
+
+class Setting(NamedTuple):
+    """One training setting: its value and where it comes from."""
+
+    value: Any
+    source: str          # the paper's section, or why we chose it
+    from_paper: bool
+
+
+def paper(value, where: str) -> Setting:
+    return Setting(value, where, True)
+
+
+def choice(value, why: str) -> Setting:
+    return Setting(value, why, False)
+
+
+NO_CLIP = "motionlab's default gradient-norm clipping (no paper mentions clipping)"
+MOGLOW_CODE = ("not in the paper: the authors' released config, github.com/simonalexanderson/"
+               "StyleGestures hparams/paper_version/locomotion.json")
+
+
+def _motegi(section: str) -> dict[str, Setting]:
+    """Motegi et al. 2018 trains the conv AE (§III-B) and the VAE (§IV-B) alike."""
+    return {
+        "optimizer": paper("Adam", f"Motegi 2018 §{section}: 'Adam optimization algorithm'"),
+        "batch_size": paper(100, f"§{section}: 'the batch size is 100'"),
+        "epochs": paper(200, f"§{section}: 'performed for 200 epochs'"),
+        "lr": choice(1e-3, "Motegi gives no learning rate: Adam's default (Kingma & Ba 2015)"),
+        "schedule": choice("constant", "no decay is mentioned"),
+        "grad_clip": choice(1.0, NO_CLIP),
+    }
+
+
+def _henter(steps: int, which: str) -> dict[str, Setting]:
+    """Henter et al. 2020 §5.2 gives the optimiser and the number of steps only."""
+    return {
+        "optimizer": paper("Adam", "Henter 2020 §5.2: 'using Adam'"),
+        "max_steps": paper(steps, f"§5.2: the {which} model, '{steps // 1000}k steps'"),
+        "batch_size": choice(100, MOGLOW_CODE),
+        "lr": choice(1e-4, MOGLOW_CODE),
+        "warmup_steps": choice(1000, MOGLOW_CODE + " (its Noam decay has a floor at the peak "
+                                     "learning rate: constant after the warm-up)"),
+        "schedule": choice("constant", MOGLOW_CODE),
+        "grad_clip": choice(1.0, NO_CLIP + "; the authors' code clips the norm at 100"),
+    }
+
+
+HABIBIE = "Habibie 2017 §4.2"
+HABIBIE_BASELINE = ("Habibie 2017 gives no training details for its LSTM-3LR baseline (§4.3, "
+                    "Tables 1-2): its VAE-LSTM value, §4.2")
+
+PAPER_SCHEDULES: dict[str, dict[str, Setting]] = {
+    "conv_ae": _motegi("III-B"),
+    "vae": _motegi("IV-B"),
+    "vae_lstm": {
+        "optimizer": paper("Adam", f"{HABIBIE}: 'using the Adam optimizer'"),
+        "lr": paper(5e-4, f"{HABIBIE}: 'a learning rate of 5x10^-4'"),
+        "epochs": paper(5000, f"{HABIBIE}: 'for 5000 epochs'"),
+        "batch_size": choice(32, "§4.2 gives no batch size: motionlab's default"),
+        "schedule": choice("constant", "§4.2 names one learning rate and no decay"),
+        "grad_clip": choice(1.0, NO_CLIP),
+    },
+    "lstm": {
+        "optimizer": choice("Adam", HABIBIE_BASELINE),
+        "lr": choice(5e-4, HABIBIE_BASELINE),
+        "epochs": choice(5000, HABIBIE_BASELINE),
+        "batch_size": choice(32, "not in the paper: motionlab's default"),
+        "schedule": choice("constant", "not in the paper: one learning rate, as for VAE-LSTM"),
+        "grad_clip": choice(1.0, NO_CLIP),
+    },
+    "glow": _henter(20_000, "fixed-length"),
+    "moglow": _henter(80_000, "autoregressive"),
+    "dfn": {
+        "stages": paper("frame, then sequence, then dynamics with both frozen",
+                        "Chen 2020 §5.1 and §5.6"),
+        "optimizer": choice("Adam", "Chen 2020 names no optimiser, learning rate, batch size or epochs"),
+        "stage_epochs": choice({"frame": 100, "sequence": 100, "dynamics": 200},
+                               "not in the paper: notebook 07's PAPER setting"),
+        "lr": choice(3e-3, "not in the paper: notebook 07's"),
+        "batch_size": choice(64, "not in the paper: notebook 07's"),
+        "schedule": choice("cosine", "not in the paper: notebook 07's, motionlab's default"),
+        "grad_clip": choice(1.0, NO_CLIP),
+    },
+}
+"""Per model, what its paper says about training (``paper``, with the section) and what we
+chose where it says nothing (``choice``, with the reason). Keys are :class:`Plan` fields,
+plus ``optimizer`` and ``stages``, which only document (motionlab always trains with Adam,
+and DFN always in the paper's stage order)."""
+
+DEFAULTS = {"epochs": 30, "batch_size": 32, "lr": 1e-3, "schedule": "cosine", "warmup_steps": 0,
+            "grad_clip": 1.0, "max_steps": None}
+"""Without ``--paper``: a laptop run."""
+
+FLAGS = {"epochs": "--epochs", "batch_size": "--batch-size", "lr": "--lr", "schedule": "--schedule",
+         "warmup_steps": "--warmup-steps", "max_steps": "--max-steps", "stage_epochs": "--stage-epochs"}
+"""The settings the command line can give (its value then wins over the paper's)."""
+
+# ----------------------------------------------------------------------------------------
 # argparse ``type=`` functions: a bad value becomes a usage error (exit code 2) naming the option.
+# ----------------------------------------------------------------------------------------
 
 
 def _whole(minimum: int):
@@ -70,6 +183,88 @@ def _out(text: str) -> str:
     return text
 
 
+def _stage_epochs(text: str) -> tuple[str, int]:
+    """``STAGE=EPOCHS``, e.g. ``frame=15``, with STAGE one of DFN's stages."""
+    stage, sep, number = text.partition("=")
+    if not sep or stage not in DFN_STAGES:
+        raise argparse.ArgumentTypeError(f"expected STAGE=EPOCHS with STAGE one of {', '.join(DFN_STAGES)}, "
+                                         f"got {text!r}")
+    return stage, _whole(1)(number)
+
+
+def _conv_ae(text: str) -> tuple[str, training.Checkpoint]:
+    """The path of a conv_ae checkpoint made by this command, and the checkpoint."""
+    from .models.conv_ae import ConvAutoencoder
+    try:
+        checkpoint = training.load_checkpoint(text)
+    except ValueError as err:
+        raise argparse.ArgumentTypeError(str(err)) from None
+    if not isinstance(checkpoint.model, ConvAutoencoder) or checkpoint.normalizer is None:
+        raise argparse.ArgumentTypeError(
+            f"{text} holds a {type(checkpoint.model).__name__}, not a conv_ae checkpoint with its "
+            "normaliser (make one with: python -m motionlab.train conv_ae --out PATH.pt)")
+    return text, checkpoint
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="python -m motionlab.train", description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("model", choices=sorted(MODELS), help="which model to train")
+    parser.add_argument("--data", default="synthetic", type=_source,
+                        help="'synthetic' or a folder of CMU .bvh files")
+    parser.add_argument("--paper", action="store_true",
+                        help="the paper's architecture and training schedule (prints which values the "
+                             "paper gives and which are stated choices); explicit options win")
+    parser.add_argument("--set", nargs="*", default=[], metavar="NAME=VALUE", help="change config fields")
+    parser.add_argument("--epochs", type=_whole(1), default=None,
+                        help=f"passes over the data (default {DEFAULTS['epochs']}; with --max-steps alone: "
+                             "as many as the steps need)")
+    parser.add_argument("--batch-size", type=_whole(1), default=None,
+                        help=f"windows per step (default {DEFAULTS['batch_size']})")
+    parser.add_argument("--lr", type=_positive(), default=None,
+                        help=f"Adam's learning rate (default {DEFAULTS['lr']:g})")
+    parser.add_argument("--schedule", choices=["cosine", "constant"], default=None,
+                        help=f"learning-rate schedule (default {DEFAULTS['schedule']})")
+    parser.add_argument("--warmup-steps", type=_whole(0), default=None,
+                        help="steps of linear learning-rate warm-up (default 0)")
+    parser.add_argument("--max-steps", type=_whole(1), default=None,
+                        help="stop after this many optimiser steps (dfn: per stage)")
+    parser.add_argument("--stage-epochs", type=_stage_epochs, nargs="+", default=None, metavar="STAGE=N",
+                        help="dfn only: epochs of each stage, e.g. frame=15 sequence=15 dynamics=30 "
+                             "(default: --epochs for each)")
+    parser.add_argument("--conv-ae", type=_conv_ae, default=None, metavar="PATH.pt",
+                        help="vae only (required): the conv_ae checkpoint whose features the VAE models")
+    parser.add_argument("--window-s", type=_positive(checks.MAX_SECONDS), default=None,
+                        help="dfn only: seconds per training window (default 2 on synthetic data, "
+                             "1 on a folder: most CMU trials are short)")
+    parser.add_argument("--seed", type=_whole(0), default=0)
+    parser.add_argument("--device", default="auto", type=_device, help="auto, cpu, cuda, cuda:1, ...")
+    parser.add_argument("--normalization", default="per_feature", choices=["per_feature", "shared_pose"])
+    parser.add_argument("--synthetic-clips", type=_whole(1), default=40)
+    parser.add_argument("--out", default=None, type=_out, help="checkpoint path (default: <model>.pt)")
+    parser.add_argument("--half", action="store_true", help="store the weights as float16 (half the size)")
+    parser.add_argument("--stride", type=_positive(checks.MAX_SECONDS), default=None,
+                        help="seconds between window starts (default: half a window)")
+    return parser
+
+
+def check_model_options(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
+    """Options that belong to one model: required there, a usage error elsewhere."""
+    if args.model == "vae" and args.conv_ae is None:
+        parser.error("--conv-ae: vae models a conv AE's features; give its checkpoint "
+                     "(python -m motionlab.train conv_ae --out conv_ae.pt, then --conv-ae conv_ae.pt)")
+    for option, name, model in [("--conv-ae", "conv_ae", "vae"), ("--stage-epochs", "stage_epochs", "dfn"),
+                                ("--window-s", "window_s", "dfn")]:
+        if getattr(args, name) is not None and args.model != model:
+            parser.error(f"{option}: only for {model}" + (" (other models: --set window=FRAMES)"
+                                                         if name == "window_s" else ""))
+    if args.stage_epochs:
+        stages = [stage for stage, _ in args.stage_epochs]
+        twice = sorted({s for s in stages if stages.count(s) > 1})
+        if twice:
+            parser.error(f"--stage-epochs: {', '.join(twice)} given twice")
+
+
 def parse_overrides(config_class, items: list[str]) -> dict:
     """``["filters=64", "depool=linear"]`` -> typed values for ``config_class``'s fields."""
     fields = {f.name: f for f in dataclasses.fields(config_class)}
@@ -96,47 +291,229 @@ def parse_overrides(config_class, items: list[str]) -> dict:
     return changes
 
 
-def main(argv: list[str] | None = None) -> training.History:
-    parser = argparse.ArgumentParser(prog="python -m motionlab.train", description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("model", choices=sorted(MODELS), help="which model to train")
-    parser.add_argument("--data", default="synthetic", type=_source,
-                        help="'synthetic' or a folder of CMU .bvh files")
-    parser.add_argument("--paper", action="store_true", help="the paper's sizes instead of the laptop's")
-    parser.add_argument("--set", nargs="*", default=[], metavar="NAME=VALUE", help="change config fields")
-    parser.add_argument("--epochs", type=_whole(1), default=30)
-    parser.add_argument("--batch-size", type=_whole(1), default=32)
-    parser.add_argument("--lr", type=_positive(), default=1e-3)
-    parser.add_argument("--seed", type=_whole(0), default=0)
-    parser.add_argument("--device", default="auto", type=_device, help="auto, cpu, cuda, cuda:1, ...")
-    parser.add_argument("--normalization", default="per_feature", choices=["per_feature", "shared_pose"])
-    parser.add_argument("--synthetic-clips", type=_whole(1), default=40)
-    parser.add_argument("--out", default=None, type=_out, help="checkpoint path (default: <model>.pt)")
-    parser.add_argument("--half", action="store_true", help="store the weights as float16 (half the size)")
-    parser.add_argument("--stride", type=_positive(checks.MAX_SECONDS), default=None,
-                        help="seconds between window starts (default: half a window)")
-    args = parser.parse_args(argv)
-
-    module_name, model_name, config_name = MODELS[args.model]
-    module = importlib.import_module(module_name)
-    config_class = getattr(module, config_name)
+def build_config(parser: argparse.ArgumentParser, args: argparse.Namespace):
+    """The model's config: laptop or paper sizes, with ``--set`` changes (a usage error if bad)."""
+    module_name, _, config_name = MODELS[args.model]
+    config_class = getattr(importlib.import_module(module_name), config_name)
     try:
         changes = parse_overrides(config_class, args.set)          # its messages name --set
+        if args.model == "vae":                                    # the conv AE decides the input size
+            if "n_inputs" in changes:
+                raise ValueError("--set n_inputs: the VAE's input size comes from --conv-ae")
+            ae = args.conv_ae[1].model.config
+            changes["n_inputs"] = ae.window // 2 * ae.filters
         config = config_class.paper(**changes) if args.paper else config_class(**changes)
-        checks.rate(config.fps, "fps")
+        if hasattr(config, "fps"):
+            checks.rate(config.fps, "fps")
     except (TypeError, ValueError) as err:
         parser.error(str(err) if str(err).startswith("--set") else f"--set: {err}")
-    clips = data.load(args.data, fps=config.fps, n_clips=args.synthetic_clips, seed=args.seed)
-    prepared = data.prepare(clips, window_s=config.window / config.fps, stride_s=args.stride, seed=args.seed,
+    return config
+
+
+def dfn_window_s(parser: argparse.ArgumentParser, args: argparse.Namespace, config) -> float:
+    """DFN's window (its config has none): ``--window-s``, else notebook 07's 2 s on synthetic
+    data and 1 s on a folder (most CMU trials are short); at least ``horizon + 1`` frames."""
+    window_s = args.window_s or (2.0 if args.data == "synthetic" else 1.0)
+    if round(window_s * config.fps) < config.horizon + 1:
+        parser.error(f"--window-s: {window_s:g} s is fewer than horizon + 1 = {config.horizon + 1} "
+                     f"frames at {config.fps:g} fps")
+    return window_s
+
+
+# ----------------------------------------------------------------------------------------
+# The training plan: defaults, the paper's schedule, the command line's options
+# ----------------------------------------------------------------------------------------
+
+@dataclasses.dataclass
+class Plan:
+    """How to train: what becomes each :class:`training.TrainConfig`, and where it came from.
+
+    ``epochs = None`` means "as many as ``max_steps`` need". ``stage_epochs`` (dfn only)
+    gives each stage its epochs. ``from_paper``, ``choices`` and ``given`` are the lines
+    :meth:`describe` prints (the first two always with ``--paper``).
+    """
+
+    epochs: int | None
+    batch_size: int
+    lr: float
+    schedule: str
+    warmup_steps: int
+    grad_clip: float | None
+    max_steps: int | None
+    stage_epochs: dict[str, int | None]
+    seed: int = 0
+    device: str = "auto"
+    paper: bool = False
+    from_paper: list[str] = dataclasses.field(default_factory=list)
+    choices: list[str] = dataclasses.field(default_factory=list)
+    given: list[str] = dataclasses.field(default_factory=list)
+
+    def train_config(self, n_train: int, stage: str | None = None) -> training.TrainConfig:
+        """The TrainConfig for ``n_train`` training examples (and one DFN ``stage``)."""
+        epochs = self.stage_epochs[stage] if stage is not None else self.epochs
+        if epochs is None:                           # as many epochs as max_steps need
+            batches = n_train // self.batch_size if n_train > self.batch_size else 1   # train() drops the last
+            epochs = math.ceil(self.max_steps / batches)
+        return training.TrainConfig(epochs=epochs, batch_size=self.batch_size, lr=self.lr,
+                                    schedule=self.schedule, warmup_steps=self.warmup_steps,
+                                    grad_clip=self.grad_clip, max_steps=self.max_steps,
+                                    seed=self.seed, device=self.device)
+
+    def describe(self) -> str:
+        lines = []
+        for title, items, always in [("from the paper", self.from_paper, self.paper),
+                                     ("stated choices (not in the paper)", self.choices, self.paper),
+                                     ("given on the command line", self.given, False)]:
+            if items or always:
+                lines += [f"{title}:"] + [f"  {item}" for item in items or ["nothing"]]
+        per_stage = " per stage" if self.stage_epochs else ""
+        epochs = self.stage_epochs or {"": self.epochs}
+        if all(n is None for n in epochs.values()):
+            shown = f"{self.max_steps} steps{per_stage}"
+        else:
+            shown = "epochs " + ", ".join(f"{stage} {'until max-steps' if n is None else n}".strip()
+                                          for stage, n in epochs.items())
+            shown += f", at most {self.max_steps} steps{per_stage}" if self.max_steps else ""
+        warmup = f" after {self.warmup_steps} warm-up steps" if self.warmup_steps else ""
+        lines.append(f"training: {shown}, batch {self.batch_size}, Adam lr {self.lr:g} "
+                     f"({self.schedule}{warmup}), gradient-norm clip {self.grad_clip}")
+        return "\n".join(lines)
+
+
+def _show(value) -> str:
+    if isinstance(value, dict):
+        return " ".join(f"{k}={v}" for k, v in value.items())
+    return f"{value:g}" if isinstance(value, float) else str(value)
+
+
+def training_plan(args: argparse.Namespace) -> Plan:
+    """Defaults, overridden by the paper's schedule (``--paper``), overridden by the options
+    given on the command line (``--epochs`` also over the paper's epochs per stage;
+    ``--stage-epochs`` over the stages it names)."""
+    given = {name: getattr(args, name) for name in FLAGS if getattr(args, name) is not None}
+    given_stages = dict(given.pop("stage_epochs", []))
+    values, from_paper, choices = {}, [], []
+    for name, setting in (PAPER_SCHEDULES[args.model].items() if args.paper else ()):
+        winner = "epochs" if name == "stage_epochs" else name          # the option that beats it
+        if winner in given:
+            note = f"  [not used: {FLAGS[winner]} given]"
+        elif name not in ("optimizer", "stages"):                      # those two only document
+            values[name], note = setting.value, ""
+        else:
+            note = ""
+        (from_paper if setting.from_paper else choices).append(
+            f"{name.replace('_', ' ')}: {_show(setting.value)}  ({setting.source}){note}")
+    values.update(given)
+    if values.get("max_steps") is not None:
+        values.setdefault("epochs", None)            # --max-steps alone: exactly that many steps
+    for name, default in DEFAULTS.items():
+        values.setdefault(name, default)
+    paper_stages = values.pop("stage_epochs", {})
+    stage_epochs = ({stage: given_stages.get(stage, paper_stages.get(stage, values["epochs"]))
+                     for stage in DFN_STAGES} if args.model == "dfn" else {})
+    shown_given = [f"{FLAGS[name]} {_show(value)}" for name, value in given.items()]
+    if given_stages:
+        shown_given.append(f"--stage-epochs {_show(given_stages)}")
+    return Plan(**values, stage_epochs=stage_epochs, seed=args.seed, device=args.device, paper=args.paper,
+                from_paper=from_paper, choices=choices, given=shown_given)
+
+
+# ----------------------------------------------------------------------------------------
+# Training, one function per kind of model
+# ----------------------------------------------------------------------------------------
+
+def _prepare(args: argparse.Namespace, fps: float, window_s: float) -> data.MotionData:
+    clips = data.load(args.data, fps=fps, n_clips=args.synthetic_clips, seed=args.seed)
+    prepared = data.prepare(clips, window_s=window_s, stride_s=args.stride, seed=args.seed,
                             normalization=args.normalization)
     print(prepared.summary())
+    return prepared
+
+
+def _model(args: argparse.Namespace, config) -> torch.nn.Module:
+    module_name, model_name, _ = MODELS[args.model]
     print(f"model: {model_name}({config})")
+    return getattr(importlib.import_module(module_name), model_name)(config)
+
+
+def train_windows(args, config, plan: Plan) -> tuple[torch.nn.Module, training.History, dict]:
+    """conv_ae, vae_lstm, lstm, glow, moglow: windows of the config's length and frame rate."""
+    prepared = _prepare(args, config.fps, config.window / config.fps)
+    model = _model(args, config)
+    history = training.train(model, prepared, plan.train_config(len(prepared.train)))
+    return model, history, {"data": prepared}
+
+
+def _conv_features(conv_ae, prepared: data.MotionData, motion_normalizer, split: str) -> torch.Tensor:
+    """Flattened conv AE features of one split's windows, normalised as the conv AE was trained."""
+    windows = prepared.normalizer.denormalize(getattr(prepared, split).windows)
+    with torch.no_grad():
+        return conv_ae.encode(motion_normalizer.normalize(windows)).flatten(1)
+
+
+def train_vae(args, config, plan: Plan) -> tuple[torch.nn.Module, training.History, dict]:
+    """Motegi's VAE (§IV) on the standardised, flattened features of the ``--conv-ae``
+    checkpoint's encoder, as notebook 03 trains it. The checkpoint's normaliser is the
+    feature normaliser; its description names the conv AE and holds the motion normaliser,
+    all that :class:`motionlab.models.vae.MotionVAE` needs besides."""
+    path, checkpoint = args.conv_ae
+    conv_ae, motion_normalizer = checkpoint.model.eval(), checkpoint.normalizer
+    prepared = _prepare(args, conv_ae.config.fps, conv_ae.config.window / conv_ae.config.fps)
+    features = {split: _conv_features(conv_ae, prepared, motion_normalizer, split)
+                for split in ("train", "val", "test")}
+    feature_normalizer = data.Normalizer.fit(features["train"].numpy())
+    sets = {split: data.MotionDataset(feature_normalizer.normalize(f)) for split, f in features.items()}
+    print(f"features: conv AE {path} -> {conv_ae.config.window // 2} x {conv_ae.config.filters} "
+          f"= {config.n_inputs} per window")
+    model = _model(args, config)
+    history = training.train(model, (sets["train"], sets["val"]), plan.train_config(len(sets["train"])))
+    description = {**prepared.description, "conv_ae": str(path),
+                   "motion_normalizer": motion_normalizer.state_dict(),
+                   "features": "conv_ae.encode(motion_normalizer.normalize(windows)).flatten(1), "
+                               "standardised by the checkpoint's normaliser"}
+    return model, history, {"normalizer": feature_normalizer, "description": description}
+
+
+def _joined(histories: dict[str, training.History]) -> training.History:
+    """The stages' histories as one, steps counted on; each row says its ``stage`` (0, 1, 2)."""
+    joined, offset = training.History(), 0
+    for k, history in enumerate(histories.values()):
+        joined.train += [{**row, "step": row["step"] + offset, "stage": k} for row in history.train]
+        joined.val += [{**row, "step": row["step"] + offset, "stage": k} for row in history.val]
+        joined.seconds += history.seconds
+        offset += len(history.train)
+    return joined
+
+
+def train_dfn(args, config, plan: Plan) -> tuple[torch.nn.Module, training.History, dict]:
+    """Dynamic Future Net: the frame autoencoder, the sequence autoencoder, the dynamics
+    model, one after another (Chen §5.6; :func:`motionlab.training.train_stages`)."""
+    prepared = _prepare(args, config.fps, args.window_s)
+    model = _model(args, config)
+    configs = {stage: plan.train_config(len(prepared.train), stage) for stage in DFN_STAGES}
+    histories = training.train_stages(model, prepared, configs)
+    for stage, history in histories.items():
+        print(f"stage {stage}: {len(history.train)} steps, final loss {history.series('loss')[1][-1]:.4f}")
+    return model, _joined(histories), {"data": prepared}
+
+
+TRAINERS = {"vae": train_vae, "dfn": train_dfn}
+"""Models trained in their own way; every other one is :func:`train_windows`."""
+
+
+def main(argv: list[str] | None = None) -> training.History:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    check_model_options(parser, args)
+    config = build_config(parser, args)
+    if args.model == "dfn":
+        args.window_s = dfn_window_s(parser, args, config)
+    plan = training_plan(args)
+    print(plan.describe())
     print(f"device: {training.pick_device(args.device)}")
-    model = getattr(module, model_name)(config)
-    history = training.train(model, prepared, training.TrainConfig(
-        epochs=args.epochs, batch_size=args.batch_size, lr=args.lr, seed=args.seed, device=args.device))
+    model, history, saved = TRAINERS.get(args.model, train_windows)(args, config, plan)
     out = args.out or f"{args.model}.pt"
-    training.save_checkpoint(out, model.cpu(), prepared, history, half=args.half)
+    training.save_checkpoint(out, model.cpu(), history=history, half=args.half, **saved)
     summary = f"trained in {history.seconds:.1f} s; final training loss {history.series('loss')[1][-1]:.4f}"
     if history.val:
         summary += f", validation loss {history.last('loss'):.4f}"

@@ -175,7 +175,8 @@ def train(model: nn.Module, data, config: TrainConfig | None = None,
 
     Training runs on ``config.device`` (``"auto"``: a GPU when there is one); when it ends
     the model goes back to the device it came on (normally the CPU, where the notebooks'
-    tensors are), in eval mode.
+    tensors are), in eval mode. When ``data`` has a ``normalizer`` the model keeps it as
+    ``model.normalizer``, so its ``generate`` works in the data's units.
 
     Raises:
         NonFiniteLossError: the loss became NaN or infinite (message says where and what to try).
@@ -184,6 +185,8 @@ def train(model: nn.Module, data, config: TrainConfig | None = None,
     train_set, val_set = _datasets(data)
     if len(train_set) == 0:
         raise ValueError("data: the training set is empty")
+    if getattr(data, "normalizer", None) is not None:
+        model.normalizer = data.normalizer
     if config.num_threads:
         torch.set_num_threads(config.num_threads)
     seed_everything(config.seed)
@@ -367,7 +370,8 @@ def save_checkpoint(path: str | Path, model: nn.Module, data=None, history: Hist
     """
     if not dataclasses.is_dataclass(getattr(model, "config", None)):
         raise ValueError("model: needs a dataclass `config` attribute to be saved")
-    normalizer = normalizer if normalizer is not None else getattr(data, "normalizer", None)
+    if normalizer is None:
+        normalizer = getattr(data, "normalizer", None) or getattr(model, "normalizer", None)
     description = description if description is not None else getattr(data, "description", {})
     state = {
         "format": CHECKPOINT_FORMAT,
@@ -548,6 +552,7 @@ def load_checkpoint(path: str | Path, config=None, device: str = "cpu") -> Check
         if width is not None and len(normalizer.mean) != width:
             raise ValueError(f"{path}: normaliser has {len(normalizer.mean)} features, "
                              f"the model reads {width}")
+        model.normalizer = normalizer
     try:
         history = History.from_dict(state["history"]) if state["history"] else History()
     except (TypeError, ValueError) as err:
@@ -592,6 +597,7 @@ def train_or_load(path: str | Path, model: nn.Module, data, config: TrainConfig 
             checkpoint = _matching_checkpoint(candidate, model, data)
             if checkpoint is not None:
                 model.load_state_dict(checkpoint.model.state_dict())
+                model.normalizer = checkpoint.normalizer
                 return model.eval(), checkpoint.history
     history = train(model, data, config)
     save_checkpoint(path, model, data, history)

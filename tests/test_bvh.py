@@ -3,6 +3,7 @@ import numpy as np
 import pytest
 
 from motionlab import bvh
+from motionlab.rotations import axis_rotation
 
 TWO_BONE = """HIERARCHY
 ROOT Root
@@ -62,12 +63,12 @@ def test_forward_kinematics_by_hand(tmp_path):
 
 
 def test_channel_order_is_applied_in_file_order():
-    rz_then_rx = bvh.axis_rotation("Z", 90) @ bvh.axis_rotation("X", 90)
-    rx_then_rz = bvh.axis_rotation("X", 90) @ bvh.axis_rotation("Z", 90)
+    rz_then_rx = axis_rotation("Z", 90) @ axis_rotation("X", 90)
+    rx_then_rz = axis_rotation("X", 90) @ axis_rotation("Z", 90)
     assert not np.allclose(rz_then_rx, rx_then_rz)
-    assert np.allclose(bvh.axis_rotation("Z", 90) @ [1, 0, 0], [0, 1, 0])
-    assert np.allclose(bvh.axis_rotation("X", 90) @ [0, 1, 0], [0, 0, 1])
-    assert np.allclose(bvh.axis_rotation("Y", 90) @ [0, 0, 1], [1, 0, 0])
+    assert np.allclose(axis_rotation("Z", 90) @ [1, 0, 0], [0, 1, 0])
+    assert np.allclose(axis_rotation("X", 90) @ [0, 1, 0], [0, 0, 1])
+    assert np.allclose(axis_rotation("Y", 90) @ [0, 0, 1], [1, 0, 0])
 
 
 @pytest.mark.parametrize("newline", ["\n", "\r\n"])

@@ -27,25 +27,25 @@ def test_shapes_of_both_variants():
 def test_prediction_after_priming_equals_the_teacher_forced_step():
     model = small().eval()
     x = torch.randn(3, 12, 66)
-    rollout = model.predict(x[:, :5], 6)
+    rollout = model.sample(x[:, :5], 6)
     assert rollout.shape == (3, 6, 66) and torch.equal(rollout[:, :5], x[:, :5])
     teacher, _ = model(x[:, :5])
     assert torch.allclose(rollout[:, 5], teacher[:, 4], atol=1e-6)
-    assert torch.equal(model.predict(x[:, :1], 1), x[:, :1])            # nothing to predict
-    assert model.predict(x[:, :1], 9).shape == (3, 9, 66)               # a single priming frame
+    assert torch.equal(model.sample(x[:, :1], 1), x[:, :1])            # nothing to predict
+    assert model.sample(x[:, :1], 9).shape == (3, 9, 66)               # a single priming frame
 
 
 def test_given_control_is_used_and_kept():
     x = torch.randn(2, 12, 66)
     model = small("given").eval()
-    rollout = model.predict(x[:, :4], 12, control=x[..., 63:])
+    rollout = model.sample(x[:, :4], 12, control=x[..., 63:])
     assert rollout.shape == (2, 12, 66) and torch.equal(rollout[..., 63:], x[..., 63:])
     teacher, _ = model(x[:, :4], x[:, 1:5, 63:])
     assert torch.allclose(rollout[:, 4, :63], teacher[:, 3], atol=1e-6)
-    other = model.predict(x[:, :4], 12, control=-x[..., 63:])
+    other = model.sample(x[:, :4], 12, control=-x[..., 63:])
     assert not torch.allclose(other[:, 6:, :63], rollout[:, 6:, :63])   # the pose follows the control
     # Habibie's Table 2 protocol: a model that predicts the control gets the true one instead
-    substituted = small().predict(x[:, :4], 12, control=x[..., 63:])
+    substituted = small().sample(x[:, :4], 12, control=x[..., 63:])
     assert torch.equal(substituted[..., 63:], x[..., 63:])
 
 
@@ -66,14 +66,14 @@ def test_bad_configs_and_inputs_name_the_argument():
         LSTMConfig(window=1)
     model, given = small(), small("given")
     x = torch.randn(2, 12, 66)
-    with pytest.raises(ValueError, match=r"prime: expected \(batch, frames >= 1, 66\)"):
-        model.predict(x[..., :63], 12)
-    with pytest.raises(ValueError, match="frames: must be >= the 5 priming frames"):
-        model.predict(x[:, :5], 3)
+    with pytest.raises(ValueError, match=r"prefix: expected \(batch, frames >= 1, 66\)"):
+        model.sample(x[..., :63], 12)
+    with pytest.raises(ValueError, match="frames: must be >= the 5 prefix frames"):
+        model.sample(x[:, :5], 3)
     with pytest.raises(ValueError, match="control: a control='given' model needs"):
-        given.predict(x[:, :4], 12)
+        given.sample(x[:, :4], 12)
     with pytest.raises(ValueError, match=r"control: expected \(batch, frames >= 20, 3\)"):
-        given.predict(x[:, :4], 20, control=x[..., 63:])
+        given.sample(x[:, :4], 20, control=x[..., 63:])
     with pytest.raises(ValueError, match="next_control"):
         given(x)
     with pytest.raises(ValueError, match="batch: expected"):

@@ -2,6 +2,7 @@ import numpy as np
 import pytest
 
 from motionlab import representation as rep
+from motionlab.rotations import y_rotation
 from motionlab.skeleton import LOCOMOTION
 
 from conftest import walker
@@ -32,7 +33,7 @@ def test_controls_of_a_known_path():
 @pytest.mark.parametrize("fps", [20.0, 120.0])
 def test_round_trip_to_world_positions(fps):
     w = walker(frames=int(4 * fps), fps=fps, speed=2.0, turn_rate=-1.0)
-    w = w @ rep.y_rotation(np.array(2.0)).T + np.array([5.0, 0, -3.0])
+    w = w @ y_rotation(np.array(2.0)).T + np.array([5.0, 0, -3.0])
     f = rep.to_features(w, fps)
     back = rep.to_positions(f, fps, start=rep.root_start(w, fps))
     assert np.abs(back - w).max() < 1e-9

@@ -179,3 +179,98 @@ def test_walked_control_follows_the_path_with_the_stride_sway():
     assert abs(walked[steady, 0].mean() - 1.3) < 0.05               # the same speed on average
     assert walked[steady, 1].std() > 0.05                           # hips sway sideways with each step
     assert drawn[steady, 1].std() == 0.0
+
+
+# --------------------------------------------------------------------------- the six steps
+
+FPS, PAD = 30.0, syn.padding_frames(30.0)
+
+
+@pytest.fixture(scope="module")
+def steps():
+    """Every step's output for one random clip, and the arguments that made them."""
+    rng = np.random.default_rng(3)
+    control = syn.random_control(6.0, FPS, rng)
+    body, style = syn.Body.random(rng), syn.Style.random(rng)
+    start, phase = np.array([1.0, -2.0, 0.4]), 0.3
+    padded, root = syn.root_path(control, FPS, start)
+    gait = syn.gait_timing(padded, FPS, style, phase)
+    feet = syn.footsteps(root, padded, gait, body, style)
+    pelvis = syn.pelvis_motion(root, gait, feet, body, style)
+    leg_joints, contacts = syn.legs(pelvis, feet, body)
+    upper = syn.upper_body(root, padded, gait, pelvis, feet, body, style)
+    return dict(control=control, body=body, style=style, start=start, phase=phase, padded=padded,
+                root=root, gait=gait, feet=feet, pelvis=pelvis, legs=leg_joints, contacts=contacts,
+                upper=upper, frames=len(control) + 2 * PAD)
+
+
+def test_step_1_root_path_pads_the_control_and_starts_at_start(steps):
+    padded, root, frames = steps["padded"], steps["root"], steps["frames"]
+    assert padded.shape == root.shape == (frames, 3)
+    assert np.array_equal(padded[PAD:-PAD], steps["control"])
+    assert np.array_equal(padded[:PAD], np.tile(steps["control"][0], (PAD, 1)))
+    assert np.allclose(root[PAD], steps["start"])
+    assert syn.padding_frames(20.0) == 20 and syn.padding_frames(29.97) == 30
+
+
+def test_step_2_gait_timing(steps):
+    gait, frames = steps["gait"], steps["frames"]
+    for name, values in vars(gait).items():
+        assert values.shape == (frames,), name
+    assert gait.cycles[0] == steps["phase"] and np.all(np.diff(gait.cycles) > 0)
+    for blend in (gait.active, gait.running, gait.forwardness):
+        assert blend.min() >= -1e-12 and blend.max() <= 1 + 1e-12
+    assert 0.3 < gait.stance_fraction.min() and gait.stance_fraction.max() < 0.7
+    assert np.allclose(gait.t, np.arange(frames) / FPS)
+
+
+def test_step_3_footsteps(steps):
+    feet, frames, body = steps["feet"], steps["frames"], steps["body"]
+    assert set(feet) == {"Left", "Right"}
+    for foot in feet.values():
+        assert foot.stance.shape == foot.u.shape == foot.beta.shape == foot.swing_u.shape == (frames,)
+        assert foot.ankle.shape == (frames, 3) and foot.rotation.shape == (frames, 3, 3)
+        assert np.array_equal(foot.stance, foot.u < foot.beta)
+        assert np.all(foot.swing_u[foot.stance] == 0)
+        assert foot.ankle[:, 1].min() > body.ankle_height - 1e-9           # never below the floor
+        assert np.allclose(foot.rotation @ np.swapaxes(foot.rotation, -1, -2), np.eye(3))
+    # the right foot is half a stride behind the left
+    assert np.allclose((feet["Right"].u - feet["Left"].u) % 1.0, 0.5)
+
+
+def test_step_4_pelvis(steps):
+    pelvis, frames, body = steps["pelvis"], steps["frames"], steps["body"]
+    assert pelvis.hips.shape == (frames, 3) and pelvis.rotation.shape == (frames, 3, 3)
+    assert pelvis.twist.shape == pelvis.list_angle.shape == (frames,)
+    for offset in pelvis.hip_offsets.values():
+        assert np.allclose(np.linalg.norm(offset, axis=-1), np.linalg.norm(body.hip_offset))
+    assert np.allclose(pelvis.hips[:, [0, 2]], steps["root"][:, :2], atol=0.05)   # sway only
+
+
+def test_step_5_legs_keep_their_bone_lengths(steps):
+    joints, contacts, body = steps["legs"], steps["contacts"], steps["body"]
+    assert contacts.shape == (steps["frames"], 2)
+    assert np.array_equal(contacts, np.stack([steps["feet"][s].stance for s in ("Left", "Right")], -1))
+    for side in ("Left", "Right"):
+        assert np.allclose(joints[f"{side}UpLeg"], steps["pelvis"].hips + steps["pelvis"].hip_offsets[side])
+        thigh = np.linalg.norm(joints[f"{side}Leg"] - joints[f"{side}UpLeg"], axis=-1)
+        shin = np.linalg.norm(joints[f"{side}Foot"] - joints[f"{side}Leg"], axis=-1)
+        assert np.allclose(thigh, body.thigh) and np.allclose(shin, body.shin)
+
+
+def test_step_6_upper_body_gives_the_remaining_joints(steps):
+    upper, frames = steps["upper"], steps["frames"]
+    assert set(upper) | set(steps["legs"]) | {"Hips"} == set(LOCOMOTION.names)
+    assert not set(upper) & set(steps["legs"])
+    assert all(position.shape == (frames, 3) for position in upper.values())
+    upper_arm = np.linalg.norm(upper["LeftForeArm"] - upper["LeftArm"], axis=-1)
+    assert np.allclose(upper_arm, steps["body"].upper_arm)
+
+
+def test_generate_is_the_six_steps_composed(steps):
+    motion = syn.generate(steps["control"], FPS, steps["body"], steps["style"], steps["start"], steps["phase"])
+    joints = {"Hips": steps["pelvis"].hips} | steps["legs"] | steps["upper"]
+    for name, position in joints.items():
+        assert np.array_equal(motion.positions[:, LOCOMOTION.index(name)], position[PAD:-PAD]), name
+    assert np.array_equal(motion.contacts, steps["contacts"][PAD:-PAD])
+    assert np.array_equal(motion.control, steps["control"])

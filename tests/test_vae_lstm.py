@@ -6,8 +6,8 @@ import pytest
 import torch
 
 from motionlab import data, training
-from motionlab.models.vae_lstm import (ControlledLSTMCell, VAELSTM, VAELSTMConfig, gaussian_kl,
-                                       pad_to_canvas)
+from motionlab.models.gaussian import kl_divergence
+from motionlab.models.vae_lstm import ControlledLSTMCell, VAELSTM, VAELSTMConfig, pad_to_canvas
 
 SMALL = VAELSTMConfig(window=16, width=5, control_filters=4, control_code=6, inference_filters=8,
                       units=5, decoder_filters=8)
@@ -38,7 +38,7 @@ def test_any_length_is_padded_to_a_multiple_of_4_and_cropped(frames):
     assert out["reconstruction"].shape == (2, frames, 66)
     assert out["mu"].shape == out["canvas"].shape == (2, steps, 5)
     assert out["control_code"].shape == (2, steps, 6)
-    generated = model.generate(x[..., 63:], generator=torch.Generator().manual_seed(0))
+    generated = model.sample(x[..., 63:], generator=torch.Generator().manual_seed(0))
     assert generated.shape == (2, frames, 66) and torch.isfinite(generated).all()
     assert model.reconstruct(x, free_running=True).shape == (2, frames, 66)
 
@@ -94,14 +94,6 @@ def test_canvas_training_form_and_test_time_form():
         model.canvas(code, z[:, :2])
 
 
-def test_kl_terms_match_torch_distributions():
-    mu, logvar = torch.randn(4, 7, 5), torch.randn(4, 7, 5)
-    q = torch.distributions.Normal(mu, (0.5 * logvar).exp())
-    p = torch.distributions.Normal(torch.zeros_like(mu), torch.ones_like(mu))
-    expected = torch.distributions.kl_divergence(q, p).sum(-1)
-    assert torch.allclose(gaussian_kl(mu, logvar), expected, atol=1e-5)
-
-
 def test_loss_is_equation_5_per_frame():
     torch.manual_seed(1)
     config = VAELSTMConfig(**{**SMALL.__dict__, "dropout": 0.0, "l1": 0.0, "observation_std": 0.7,
@@ -113,7 +105,7 @@ def test_loss_is_equation_5_per_frame():
     torch.manual_seed(5)                                 # the same posterior sample
     out = model(x)
     nll = -torch.distributions.Normal(out["reconstruction"], 0.7).log_prob(x).sum((1, 2)) / 18
-    kl = gaussian_kl(out["mu"], out["logvar"]).sum(1) / 18
+    kl = kl_divergence(out["mu"], out["logvar"]).sum((1, 2)) / 18
     assert torch.allclose(terms["nll"], nll.mean(), rtol=1e-5)
     assert torch.allclose(terms["kl"], kl.mean(), rtol=1e-5)
     assert torch.allclose(terms["loss"], (nll + kl).mean(), rtol=1e-5)
@@ -138,18 +130,18 @@ def test_generation_from_the_prior_and_from_4_frames():
     model = VAELSTM(SMALL)
     control, x = torch.randn(2, 22, 3), torch.randn(2, 22, 66)
     g = lambda: torch.Generator().manual_seed(3)                                    # noqa: E731
-    prior = model.generate(control, generator=g())
+    prior = model.sample(control, generator=g())
     assert prior.shape == (2, 22, 66) and model.training                 # mode restored
     assert torch.equal(prior[..., 63:], control)                         # follows the given control
-    assert torch.equal(prior, model.generate(control, generator=g()))    # reproducible
-    assert not torch.equal(prior, model.generate(control))               # and stochastic
-    assert not torch.allclose(prior[..., :63], model.generate(-control, generator=g())[..., :63])
-    primed = model.generate(control, initial=x[:, :4], generator=g())
+    assert torch.equal(prior, model.sample(control, generator=g()))    # reproducible
+    assert not torch.equal(prior, model.sample(control))               # and stochastic
+    assert not torch.allclose(prior[..., :63], model.sample(-control, generator=g())[..., :63])
+    primed = model.sample(control, prefix=x[:, :4], generator=g())
     assert primed.shape == (2, 22, 66) and not torch.allclose(primed, prior)
     # the first canvas step of 4 frames sets z_1: pose-only frames give the same result
-    assert torch.equal(primed, model.generate(control, initial=x[:, :4, :63], generator=g()))
-    mean = model.generate(control, initial=x[:, :4], mean=True)
-    assert torch.equal(mean, model.generate(control, initial=x[:, :4], mean=True))
+    assert torch.equal(primed, model.sample(control, prefix=x[:, :4, :63], generator=g()))
+    mean = model.sample(control, prefix=x[:, :4], temperature=0.0)
+    assert torch.equal(mean, model.sample(control, prefix=x[:, :4], temperature=0.0))
 
 
 def test_dropout_removes_whole_joints_and_controls_only_while_training():
@@ -190,13 +182,13 @@ def test_bad_configs_and_inputs_name_the_argument():
     with pytest.raises(ValueError, match=r"x: expected \(batch, frames >= 1, 66\)"):
         model.loss(torch.randn(2, 16, 63))
     with pytest.raises(ValueError, match="control: expected"):
-        model.generate(torch.randn(16, 3))
-    with pytest.raises(ValueError, match="initial: expected .*frames >= 4"):
-        model.generate(torch.randn(2, 16, 3), initial=torch.randn(2, 3, 66))
-    with pytest.raises(ValueError, match="initial: expected 2 sequences"):
-        model.generate(torch.randn(2, 16, 3), initial=torch.randn(1, 4, 66))
+        model.sample(torch.randn(16, 3))
+    with pytest.raises(ValueError, match="prefix: expected .*frames >= 4"):
+        model.sample(torch.randn(2, 16, 3), prefix=torch.randn(2, 3, 66))
+    with pytest.raises(ValueError, match="prefix: expected 2 sequences"):
+        model.sample(torch.randn(2, 16, 3), prefix=torch.randn(1, 4, 66))
     with pytest.raises(ValueError, match="control: contains NaN"):
-        model.generate(torch.full((1, 8, 3), float("nan")))
+        model.sample(torch.full((1, 8, 3), float("nan")))
     with pytest.raises(ValueError, match="canvas: expected"):
         model.decode(torch.randn(1, 4, 7))
 

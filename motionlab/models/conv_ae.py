@@ -23,6 +23,8 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
+from .base import eval_mode
+
 
 @dataclass(frozen=True)
 class ConvAEConfig:
@@ -162,12 +164,8 @@ class ConvAutoencoder(nn.Module):
     def project(self, x: torch.Tensor) -> torch.Tensor:
         """Holden's use of the manifold: map (possibly corrupted) motion to the nearest
         motion the autoencoder can represent. The same as ``forward`` in eval mode."""
-        was_training = self.training
-        self.eval()
-        with torch.no_grad():
-            out = self(x)
-        self.train(was_training)
-        return out
+        with torch.no_grad(), eval_mode(self):
+            return self(x)
 
     def loss(self, batch: torch.Tensor) -> dict[str, torch.Tensor]:
         """Mean squared reconstruction error (§III-B) plus Holden's L1 weight penalty, for a

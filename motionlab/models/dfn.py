@@ -41,6 +41,10 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
+from .. import checks
+from . import gaussian
+from .base import Generated, GenerativeModel, eval_mode, generator_for
+
 STAGES = ("frame", "sequence", "dynamics")
 """The training stages, in order (§5.6)."""
 
@@ -169,34 +173,6 @@ class GaussianHead(nn.Module):
         return mu, logvar.clamp(-8.0, 4.0)
 
 
-def gaussian_kl(mu_q: torch.Tensor, logvar_q: torch.Tensor,
-                mu_p: torch.Tensor | None = None, logvar_p: torch.Tensor | None = None) -> torch.Tensor:
-    """``KL(N(mu_q, exp(logvar_q)) || N(mu_p, exp(logvar_p)))`` of diagonal Gaussians, summed
-    over the last dimension: ``(..., d)`` -> ``(...)`` nats. ``mu_p = logvar_p = None``: the
-    unit Gaussian. The KL terms of §5.6 (eq. 15) and §5.5."""
-    if mu_p is None:
-        mu_p = torch.zeros_like(mu_q)
-    if logvar_p is None:
-        logvar_p = torch.zeros_like(logvar_q)
-    return 0.5 * (logvar_p - logvar_q + (logvar_q.exp() + (mu_q - mu_p).pow(2)) / logvar_p.exp() - 1.0).sum(-1)
-
-
-def sample(mu: torch.Tensor, logvar: torch.Tensor, temperature: float = 1.0,
-           generator: torch.Generator | None = None) -> torch.Tensor:
-    """``mu + temperature * sigma * eps``, eps ~ N(0, I) (the reparametrisation trick).
-    The noise is drawn on the ``generator``'s device, so a CPU generator also seeds a model
-    on a GPU."""
-    device = generator.device if generator is not None else mu.device
-    noise = torch.randn(mu.shape, generator=generator, device=device, dtype=mu.dtype).to(mu.device)
-    return mu + temperature * (0.5 * logvar).exp() * noise
-
-
-def gaussian_nll(prediction: torch.Tensor, target: torch.Tensor, std: float) -> torch.Tensor:
-    """``-log N(target | prediction, std^2 I)`` summed over the last dimension, nats."""
-    squared = ((prediction - target) / std).pow(2)
-    return (0.5 * squared + math.log(std) + 0.5 * math.log(2 * math.pi)).sum(-1)
-
-
 # ----------------------------------------------------------------------------------------
 # §5.1 Spatial embedding: the frame autoencoder
 # ----------------------------------------------------------------------------------------
@@ -319,7 +295,7 @@ class DynamicsModel(nn.Module):
 # The model
 # ----------------------------------------------------------------------------------------
 
-class DFN(nn.Module):
+class DFN(GenerativeModel, nn.Module):
     """Chen et al.'s Dynamic Future Net: staged training, stochastic generation from a prefix.
 
     Training: ``set_stage(name)`` then ``loss(batch)`` on windows ``(batch, frames, 66)``
@@ -328,6 +304,7 @@ class DFN(nn.Module):
     """
 
     stages = STAGES                                             # trained in this order (§5.6)
+    continues_motion = True
 
     def __init__(self, config: DFNConfig = DFNConfig()):
         super().__init__()
@@ -471,14 +448,14 @@ class DFN(nn.Module):
             h = state[-1]
             qf = d.future_posterior(h, s[:, t])                              # eq. 11
             pf = d.future_prior(h)                                           # eq. 5
-            f = sample(*qf, generator=generator)
+            f = gaussian.sample(*qf, generator=generator)
             s_hat = d.summary_decoder(f)                                     # eq. 6
             qz = d.current_posterior(x[:, t], h, s[:, t])                    # eq. 10
             # Choice: the current prior is conditioned on the summary unrolled from the
             # posterior's f (as at generation, where it comes from the prior's f), not on
             # the true s, so that p(z | h, s^) is trained on the input it will get.
             pz = d.current_prior(h, s_hat)                                   # eq. 7
-            z = sample(*qz, generator=generator)
+            z = gaussian.sample(*qz, generator=generator)
             for key, value in zip(names, (h, *qf, *pf, f, s_hat, *qz, *pz, z, d.current_feature(z))):
                 out[key].append(value)
             state = d.step_past(state, z, f)                                 # eq. 8
@@ -505,10 +482,10 @@ class DFN(nn.Module):
         h1, h2 = out["h"][:, :-skip], out["h"][:, skip:]
         dt = torch.full_like(z2[..., :1], skip / self.config.td_max_skip)
         mu, logvar = d.td_posterior(z2, h1, h2, dt)                              # eq. 13
-        kl = gaussian_kl(mu, logvar, out["qz_mu"][:, :-skip], out["qz_logvar"][:, :-skip])
-        prediction = d.skip(torch.cat([sample(mu, logvar, generator=generator), dt], -1))   # eq. 14
+        kl = gaussian.kl_divergence(mu, logvar, out["qz_mu"][:, :-skip], out["qz_logvar"][:, :-skip]).sum(-1)
+        prediction = d.skip(torch.cat([gaussian.sample(mu, logvar, generator=generator), dt], -1))   # eq. 14
         return {"td_mu": mu, "td_logvar": logvar, "td_kl": kl,
-                "td_nll": gaussian_nll(prediction, z2, 1.0)}
+                "td_nll": gaussian.negative_log_likelihood(z2, prediction, std=1.0).sum(-1)}
 
     def dynamics_loss(self, batch: torch.Tensor) -> dict[str, torch.Tensor]:
         """Eq. 15 per step, averaged over steps and windows (nats):
@@ -523,10 +500,10 @@ class DFN(nn.Module):
         """
         out = self.infer(batch)
         std = self.config.observation_std
-        x_nll = gaussian_nll(out["x_hat"], out["x"], std).mean()
-        s_nll = gaussian_nll(out["s_hat"], out["s"], std).mean()
-        kl_z = gaussian_kl(out["qz_mu"], out["qz_logvar"], out["pz_mu"], out["pz_logvar"]).mean()
-        kl_f = gaussian_kl(out["qf_mu"], out["qf_logvar"], out["pf_mu"], out["pf_logvar"]).mean()
+        x_nll = gaussian.negative_log_likelihood(out["x"], out["x_hat"], std=std).sum(-1).mean()
+        s_nll = gaussian.negative_log_likelihood(out["s"], out["s_hat"], std=std).sum(-1).mean()
+        kl_z = gaussian.kl_divergence(out["qz_mu"], out["qz_logvar"], out["pz_mu"], out["pz_logvar"]).sum(-1).mean()
+        kl_f = gaussian.kl_divergence(out["qf_mu"], out["qf_logvar"], out["pf_mu"], out["pf_logvar"]).sum(-1).mean()
         total = x_nll + s_nll + kl_z + kl_f
         terms = {"x_nll": x_nll.detach(), "s_nll": s_nll.detach(), "kl_z": kl_z.detach(),
                  "kl_f": kl_f.detach(), "x_mse": F.mse_loss(out["x_hat"], out["x"]).detach()}
@@ -571,8 +548,8 @@ class DFN(nn.Module):
             frames.shape[0], n * H, -1).to(given_on)
 
     @torch.no_grad()
-    def generate(self, prefix: torch.Tensor, frames: int, temperature: float = 1.0,
-                 generator: torch.Generator | None = None, latents: bool = False):
+    def sample(self, prefix: torch.Tensor, frames: int, temperature: float = 1.0,
+               generator: torch.Generator | None = None, latents: bool = False):
         """Open-loop generation from a motion prefix (§6.1): stochastic, any length.
 
         Args:
@@ -603,9 +580,12 @@ class DFN(nn.Module):
             raise ValueError(f"frames: expected an int >= the prefix's {k} frames, got {frames!r}")
         if not (isinstance(temperature, (int, float)) and math.isfinite(temperature) and temperature >= 0):
             raise ValueError(f"temperature: expected a finite number >= 0, got {temperature!r}")
-        was_training = self.training
-        self.eval()
-        d, c = self.dynamics, self.config
+        with eval_mode(self):
+            return self._sample(prefix, frames, temperature, generator, latents)
+
+    def _sample(self, prefix, frames, temperature, generator, latents):
+        """:meth:`sample`'s work, with the model in evaluation mode."""
+        d, c, k = self.dynamics, self.config, prefix.shape[1]
         given_on = prefix.device
         prefix = prefix.to(self.code_mean.device)                    # the model's device
         state = d.initial_state(prefix.shape[0], c.past, prefix.device)
@@ -617,17 +597,29 @@ class DFN(nn.Module):
         zs, fs, xs = [], [], []
         for _ in range(frames - k):
             h = state[-1]
-            f = sample(*d.future_prior(h), temperature, generator)             # eq. 5
-            s_hat = d.summary_decoder(f)                                         # eq. 6
-            z = sample(*d.current_prior(h, s_hat), temperature, generator)      # eq. 7
+            f = gaussian.sample(*d.future_prior(h), temperature, generator)             # eq. 5
+            s_hat = d.summary_decoder(f)                                                  # eq. 6
+            z = gaussian.sample(*d.current_prior(h, s_hat), temperature, generator)      # eq. 7
             zs.append(z), fs.append(f), xs.append(d.current_feature(z))         # x = MLP(z)
             state = d.step_past(state, z, f)                                     # eq. 8
         empty = prefix.new_zeros(prefix.shape[0], 0, 1)
         stack = lambda v, n: torch.stack(v, 1) if v else empty.expand(-1, -1, n)  # noqa: E731
         x = stack(xs, c.code)
         motion = torch.cat([prefix, self.frames_from_codes(x)], 1)
-        self.train(was_training)
         if latents:
             return {"frames": motion.to(given_on), "z": stack(zs, c.current).to(given_on),
                     "f": stack(fs, c.future).to(given_on), "x": x.to(given_on)}
         return motion.to(given_on)
+
+    def generate(self, control=None, *, frames=None, prefix=None, n=1, temperature=1.0, seed=0) -> Generated:
+        """Continue ``prefix`` (required; the paper primes with 8 to 20 frames) by ``frames``
+        new frames; see :mod:`motionlab.models.base`.
+
+        DFN has no control input (§6.1: open-loop, diversified motion): ``control`` is
+        ignored; the model chooses its own path. Temperature 0 gives the mean path.
+        """
+        n, temperature = self._check_common(n, temperature, seed)
+        prefix = self._normalised_prefix(prefix, n)
+        frames = checks.whole(frames, "frames", 1)
+        k = prefix.shape[1]
+        return self._result(self.sample(prefix, k + frames, float(temperature), generator_for(seed))[:, k:])

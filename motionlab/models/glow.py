@@ -37,6 +37,8 @@ import numpy as np
 import torch
 from torch import nn
 
+from .. import checks
+from .base import Generated, GenerativeModel, generator_for
 from .flows import ConvCouplingNet, GaussianPrior, MultiScaleFlow
 
 
@@ -96,7 +98,35 @@ class GlowConfig:
         return replace(cls(levels=4, steps=32, hidden=512, window=80, fps=20.0, conditional=True), **changes)
 
 
-class Glow(nn.Module):
+class MotionFlow(GenerativeModel, nn.Module):
+    """What Glow and MoGlow share: the layout of a frame's features inside the flow.
+
+    The flow models the pose (the whole frame for an unconditional model) less the
+    ``constant_features`` (the hips' root-local ``x`` and ``z``, always 0): ``n_modelled``
+    values per frame, at the feature indices ``modelled``; the control columns are
+    ``control``.
+    """
+
+    def _set_layout(self, config, described: int) -> None:
+        modelled = [i for i in range(described) if i not in config.constant_features]
+        self.register_buffer("modelled", torch.tensor(modelled), persistent=False)
+        self.register_buffer("constant", torch.tensor(sorted(set(config.constant_features)), dtype=torch.long),
+                             persistent=False)
+        self.control = slice(config.n_features - config.n_control, config.n_features)
+        self.n_modelled = len(modelled)
+
+    def join_features(self, x: torch.Tensor, control: torch.Tensor | None) -> torch.Tensor:
+        """Modelled values ``(batch, frames, n_modelled)`` and the control ``(batch, frames,
+        n_control)`` (or ``None``: the flow models it too, or it is unknown) -> features
+        ``(batch, frames, n_features)``, constant features 0."""
+        features = x.new_zeros(x.shape[:2] + (self.config.n_features,))
+        features[..., self.modelled] = x
+        if control is not None:
+            features[..., self.control] = control
+        return features
+
+
+class Glow(MotionFlow):
     """The fixed-length sequence Glow of §3.3-3.4.
 
     Batches are normalised feature windows ``(batch, frames, n_features)``, ``frames`` a
@@ -109,14 +139,8 @@ class Glow(nn.Module):
     def __init__(self, config: GlowConfig = GlowConfig()):
         super().__init__()
         self.config = config
-        n_pose = config.n_features - config.n_control
-        described = n_pose if config.conditional else config.n_features
-        modelled = [i for i in range(described) if i not in config.constant_features]
-        self.register_buffer("modelled", torch.tensor(modelled), persistent=False)
-        self.register_buffer("constant", torch.tensor(sorted(set(config.constant_features)), dtype=torch.long),
-                             persistent=False)
-        self.control = slice(n_pose, config.n_features)
-        self.n_modelled = len(modelled)
+        self._set_layout(config, config.n_features - (config.n_control if config.conditional else 0))
+        self.follows_control = config.conditional
         self.flow = MultiScaleFlow(self.n_modelled, config.levels, config.steps,
                                    partial(ConvCouplingNet, hidden=config.hidden, width=config.width),
                                    cond_channels=config.n_control if config.conditional else 0)
@@ -141,14 +165,6 @@ class Glow(nn.Module):
                              f"(constant_features), got values up to {batch[..., self.constant].abs().max():.3g}")
         x = batch[..., self.modelled]
         return x, (batch[..., self.control] if self.config.conditional else None)
-
-    def join_features(self, x: torch.Tensor, control: torch.Tensor | None) -> torch.Tensor:
-        """The inverse of :meth:`split_features`: ``(batch, frames, n_features)``."""
-        features = x.new_zeros(x.shape[:2] + (self.config.n_features,))
-        features[..., self.modelled] = x
-        if self.config.conditional:
-            features[..., self.control] = control
-        return features
 
     # -- likelihood (eq. 9) --------------------------------------------------------------
 
@@ -243,6 +259,24 @@ class Glow(nn.Module):
         z = self.prior.sample((n, frames * self.n_modelled), temperature, generator,
                               device=self.modelled.device)
         return self.join_features(self.flow.inverse(z, control), control)
+
+    def generate(self, control=None, *, frames=None, prefix=None, n=1, temperature=1.0, seed=0) -> Generated:
+        """``n`` windows; see :mod:`motionlab.models.base`.
+
+        A conditional Glow follows ``control`` (required; ``frames`` is its length). An
+        unconditional one ignores ``control`` and draws ``frames`` frames (default
+        ``config.window``). Either way ``frames`` must be a multiple of ``2^(levels - 1)``,
+        and Glow draws whole windows: it does not continue a ``prefix``.
+        """
+        n, temperature = self._check_common(n, temperature, seed)
+        self._refuse_prefix(prefix)
+        if self.config.conditional:
+            control = self._normalised_control(control, n, frames)
+            frames = control.shape[1]
+        else:
+            control = None
+            frames = self.config.window if frames is None else checks.whole(frames, "frames", 1)
+        return self._result(self.sample(n, control, frames, temperature, generator_for(seed)))
 
     def describe(self, frames: int | None = None) -> list[str]:
         """One line per level of the hierarchy: frames, channels, conditioning, split."""

@@ -28,6 +28,9 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
+from .. import checks
+from .base import Generated, GenerativeModel, eval_mode
+
 
 @dataclass(frozen=True)
 class LSTMConfig:
@@ -79,12 +82,19 @@ class LSTMConfig:
         return replace(cls(window=240, fps=60.0, hidden=1000, layers=3), **changes)
 
 
-class MotionLSTM(nn.Module):
+class MotionLSTM(GenerativeModel, nn.Module):
     """LSTM-3LR: next-frame prediction with stacked LSTMs and a linear read-out.
 
     ``forward(frames, next_control, state)`` -> predictions ``(batch, frames, outputs)``
-    and the LSTM state; :meth:`predict` primes and runs it on its own output.
+    and the LSTM state; :meth:`sample` primes and runs it on its own output (normalised
+    tensors), :meth:`generate` does the same in the data's units.
     """
+
+    continues_motion = True
+
+    @property
+    def follows_control(self) -> bool:
+        return self.config.control == "given"
 
     def __init__(self, config: LSTMConfig = LSTMConfig()):
         super().__init__()
@@ -143,46 +153,69 @@ class MotionLSTM(nn.Module):
                 "control_mse": control_mse.detach()}
 
     @torch.no_grad()
-    def predict(self, prime: torch.Tensor, frames: int, control: torch.Tensor | None = None) -> torch.Tensor:
-        """Continue the sequences ``prime`` ``(batch, k, n_features)`` to ``frames`` frames.
+    def sample(self, prefix: torch.Tensor, frames: int, control: torch.Tensor | None = None,
+               generator: torch.Generator | None = None) -> torch.Tensor:
+        """Continue the sequences ``prefix`` ``(batch, k, n_features)`` to ``frames`` frames.
 
-        The model reads the ``k`` priming frames, then runs on its own predictions.
+        The model reads the ``k`` prefix frames, then runs on its own predictions. It is
+        deterministic: ``generator`` is accepted for the common signature and not used.
 
         Args:
-            prime: the first ``k >= 1`` frames (normalised); returned unchanged.
+            prefix: the first ``k >= 1`` frames (normalised); returned unchanged.
             frames: the total length of the result, ``>= k``.
             control: ``(batch, >= frames, n_control)`` true controls. Required for
                 ``control="given"``; for ``control="predicted"`` optional: if given, each
                 predicted control is replaced by the true one before it is fed back
                 (Habibie's Table 2 protocol for the baselines).
 
-        Returns ``(batch, frames, n_features)`` normalised features.
+        Returns ``(batch, frames, n_features)`` normalised features, the prefix first.
         """
         cfg = self.config
-        self._check(prime, "prime", cfg.n_features)
-        k = prime.shape[1]
+        self._check(prefix, "prefix", cfg.n_features)
+        k = prefix.shape[1]
         if frames < k:
-            raise ValueError(f"frames: must be >= the {k} priming frames, got {frames}")
+            raise ValueError(f"frames: must be >= the {k} prefix frames, got {frames}")
         if control is not None:
             self._check(control, "control", cfg.n_control, min_frames=frames)
-            if control.shape[0] != prime.shape[0]:
-                raise ValueError(f"control: expected {prime.shape[0]} sequences like prime, got {control.shape[0]}")
+            if control.shape[0] != prefix.shape[0]:
+                raise ValueError(f"control: expected {prefix.shape[0]} sequences like prefix, got {control.shape[0]}")
         elif cfg.control == "given":
             raise ValueError("control: a control='given' model needs the control signal for all frames")
-        was_training = self.training
-        self.eval()
         given = cfg.control == "given"
-        _, state = self(prime[:, :-1], control[:, 1:k] if given else None) if k > 1 else (None, None)
-        out = [prime]
-        current = prime[:, -1:]
-        for t in range(k, frames):
-            prediction, state = self(current, control[:, t:t + 1] if given else None, state)
-            if given:
-                current = torch.cat([prediction, control[:, t:t + 1]], dim=-1)
-            elif control is not None:
-                current = torch.cat([prediction[..., :cfg.n_pose], control[:, t:t + 1]], dim=-1)
-            else:
-                current = prediction
-            out.append(current)
-        self.train(was_training)
+        with eval_mode(self):
+            _, state = self(prefix[:, :-1], control[:, 1:k] if given else None) if k > 1 else (None, None)
+            out = [prefix]
+            current = prefix[:, -1:]
+            for t in range(k, frames):
+                prediction, state = self(current, control[:, t:t + 1] if given else None, state)
+                if given:
+                    current = torch.cat([prediction, control[:, t:t + 1]], dim=-1)
+                elif control is not None:
+                    current = torch.cat([prediction[..., :cfg.n_pose], control[:, t:t + 1]], dim=-1)
+                else:
+                    current = prediction
+                out.append(current)
         return torch.cat(out, dim=1)
+
+    def generate(self, control=None, *, frames=None, prefix=None, n=1, temperature=1.0, seed=0) -> Generated:
+        """Continue ``prefix`` (required, ``k >= 1`` frames); see :mod:`motionlab.models.base`.
+
+        A ``control="given"`` model follows ``control`` (required; ``frames`` is its length).
+        A ``control="predicted"`` model predicts its own control; given a ``control``, the
+        true one replaces each prediction before it is fed back (Habibie's Table 2), else
+        give ``frames``. The LSTM is deterministic: ``temperature`` and ``seed`` change
+        nothing, and ``n > 1`` repeats one answer.
+        """
+        n, _ = self._check_common(n, temperature, seed)
+        prefix = self._normalised_prefix(prefix, n)
+        k = prefix.shape[1]
+        if control is not None:
+            control = self._normalised_control(control, n, frames)
+            frames = control.shape[1]
+            control = torch.cat([prefix[..., self.config.n_pose:], control], dim=1)
+        elif self.follows_control:
+            self._normalised_control(None, n)
+        frames = checks.whole(frames, "frames", 1)
+        device = next(self.parameters()).device
+        motion = self.sample(prefix.to(device), k + frames, None if control is None else control.to(device))
+        return self._result(motion[:, k:])

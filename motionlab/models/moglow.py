@@ -44,14 +44,15 @@ import math
 from contextlib import contextmanager
 from dataclasses import dataclass, replace
 from functools import partial
-from pathlib import Path
 
 import numpy as np
 import torch
 import torch.nn.functional as F
 from torch import nn
 
+from .base import Generated, eval_mode, generator_for
 from .flows import _LOG_SIGMOID_SHIFT, SCALE_SHIFT, FlowSequence, FlowStep, GaussianPrior, MLPCouplingNet
+from .glow import MotionFlow
 
 
 @dataclass(frozen=True)
@@ -142,23 +143,20 @@ class LSTMCouplingNet(nn.Module):
         return self.output(hidden)
 
 
-class MoGlow(nn.Module):
+class MoGlow(MotionFlow):
     """The autoregressive MoGlow of §4.2 (or its Markov variant, ``recurrent=False``).
 
     Batches are normalised feature windows ``(batch, frames, n_features)`` with
     ``frames > history``; the first ``history`` frames are conditioning only.
     """
 
+    follows_control = True
+    continues_motion = True
+
     def __init__(self, config: MoGlowConfig = MoGlowConfig()):
         super().__init__()
         self.config = config
-        n_pose = config.n_features - config.n_control
-        modelled = [i for i in range(n_pose) if i not in config.constant_features]
-        self.register_buffer("modelled", torch.tensor(modelled), persistent=False)
-        self.register_buffer("constant", torch.tensor(sorted(set(config.constant_features)), dtype=torch.long),
-                             persistent=False)
-        self.control = slice(n_pose, config.n_features)
-        self.n_modelled = len(modelled)
+        self._set_layout(config, config.n_features - config.n_control)
         # the conditioning of frame t: τ previous poses, then the control of frames t-τ .. t
         self.cond_channels = config.history * self.n_modelled + (config.history + 1) * config.n_control
         if config.recurrent:
@@ -171,7 +169,7 @@ class MoGlow(nn.Module):
 
     # -- data in and out -----------------------------------------------------------------
 
-    def _check(self, batch: torch.Tensor, name: str = "batch", min_frames: int | None = None) -> None:
+    def check_features(self, batch: torch.Tensor, name: str = "batch", min_frames: int | None = None) -> None:
         n = self.config.n_features
         min_frames = self.config.history + 1 if min_frames is None else min_frames
         if not isinstance(batch, torch.Tensor) or batch.ndim != 3 or batch.shape[-1] != n \
@@ -181,14 +179,6 @@ class MoGlow(nn.Module):
         if len(self.constant) and batch[..., self.constant].abs().max() > 1e-4:
             raise ValueError(f"{name}: features {self.config.constant_features} should be 0 in every frame "
                              f"(constant_features), got values up to {batch[..., self.constant].abs().max():.3g}")
-
-    def join_features(self, x: torch.Tensor, control: torch.Tensor) -> torch.Tensor:
-        """Modelled pose ``(batch, frames, n_modelled)`` and control ``(batch, frames,
-        n_control)`` -> features ``(batch, frames, n_features)`` (constant features 0)."""
-        features = x.new_zeros(x.shape[:2] + (self.config.n_features,))
-        features[..., self.modelled] = x
-        features[..., self.control] = control
-        return features
 
     def conditioning(self, poses: torch.Tensor, control: torch.Tensor, drop: bool = False) -> torch.Tensor:
         """The conditioning of every predicted frame (eq. 18), ``(batch, frames - τ, cond_channels)``.
@@ -221,7 +211,7 @@ class MoGlow(nn.Module):
     def log_likelihood(self, batch: torch.Tensor) -> torch.Tensor:
         """``Σ_{t>τ} ln p(x_t | x_{t-τ:t-1}, c_{t-τ:t}, h_t)`` of each window, nats,
         normalised units, ``(batch,)``. The first ``τ`` frames are given (footnote 2)."""
-        self._check(batch)
+        self.check_features(batch)
         poses, control = batch[..., self.modelled], batch[..., self.control]
         cond = self.conditioning(poses, control, drop=self.training)
         z, logdet = self.flow(poses[:, self.config.history:], cond)
@@ -241,12 +231,8 @@ class MoGlow(nn.Module):
         :class:`motionlab.data.Normalizer`, the data's units (metres), adding ``Σ_d ln σ_d``
         over the modelled features to every frame. Evaluated without dropout.
         """
-        was_training = self.training
-        self.eval()
-        try:
+        with eval_mode(self):
             total = torch.cat([-self.log_likelihood(chunk) for chunk in torch.split(windows, batch_size)])
-        finally:
-            self.train(was_training)
         per_frame = float(total.mean()) / (windows.shape[1] - self.config.history)
         if normalizer is not None:
             per_frame += float(np.log(np.asarray(normalizer.std)[self.modelled.cpu().numpy()]).sum())
@@ -267,8 +253,9 @@ class MoGlow(nn.Module):
             for network in networks:
                 network.carrying, network.state = False, None
 
-    def _history_tensor(self, history) -> torch.Tensor:
-        """``history`` as a float tensor, checked to be ``(batch, τ, n_features)``."""
+    def check_history(self, history) -> torch.Tensor:
+        """``history`` as a float tensor on the model's device, checked to be ``(batch, τ,
+        n_features)`` (normalised or in data units: the constant features are not checked)."""
         history = torch.as_tensor(history, dtype=torch.float32, device=self.modelled.device)
         tau, n = self.config.history, self.config.n_features
         if history.ndim != 3 or history.shape[1] != tau or history.shape[2] != n:
@@ -277,8 +264,8 @@ class MoGlow(nn.Module):
         return history
 
     def _check_sampling(self, control: torch.Tensor, history: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        history = self._history_tensor(history)
-        self._check(history, "history", min_frames=self.config.history)
+        history = self.check_history(history)
+        self.check_features(history, "history", min_frames=self.config.history)
         control = torch.as_tensor(control, dtype=torch.float32, device=self.modelled.device)
         c = self.config.n_control
         if control.ndim != 3 or control.shape[0] != history.shape[0] or control.shape[2] != c or control.shape[1] < 1:
@@ -310,16 +297,11 @@ class MoGlow(nn.Module):
         tau = self.config.history
         poses = history[..., self.modelled]
         controls = torch.cat([history[..., self.control], control], dim=1)
-        was_training = self.training
-        self.eval()
-        try:
-            with self.carrying_state():
-                for t in range(frames):
-                    cond = self.frame_conditioning(poses[:, -tau:], controls[:, t:t + tau + 1])
-                    x = self.flow.inverse(temperature * noise[:, t:t + 1], cond)
-                    poses = torch.cat([poses, x], dim=1)
-        finally:
-            self.train(was_training)
+        with eval_mode(self), self.carrying_state():
+            for t in range(frames):
+                cond = self.frame_conditioning(poses[:, -tau:], controls[:, t:t + tau + 1])
+                x = self.flow.inverse(temperature * noise[:, t:t + 1], cond)
+                poses = torch.cat([poses, x], dim=1)
         return self.join_features(poses[:, tau:], control)
 
     def _noise(self, noise, shape, generator) -> torch.Tensor:
@@ -331,34 +313,25 @@ class MoGlow(nn.Module):
             raise ValueError(f"noise: expected {tuple(shape)}, got {tuple(epsilon.shape)}")
         return epsilon
 
-    def generate(self, control, history, normalizer, n: int = 1, temperature: float = 1.0,
-                 seed: int = 0) -> np.ndarray:
-        """Generate motion for a control signal, in the data's units (the notebooks' entry point).
+    def generate(self, control=None, *, frames=None, prefix=None, n=1, temperature=1.0, seed=0) -> Generated:
+        """Follow ``control`` (required) from ``prefix`` (required, at least ``τ`` real
+        frames; the last ``τ`` are the history); see :mod:`motionlab.models.base`.
 
-        Args:
-            control: ``(frames, n_control)`` (the same for all ``n`` samples) or ``(n, frames,
-                n_control)``: forward, sideways (m/s) and turning (rad/s) of each new frame.
-            history: the ``τ`` frames to continue, features ``(τ, n_features)`` or ``(n, τ, n_features)``.
-            normalizer: the :class:`motionlab.data.Normalizer` the model was trained with.
-            n: samples (streams run as one batch).
-            temperature: the prior's standard deviation.
-            seed: seeds the noise.
-
-        Returns:
-            Features ``(n, τ + frames, n_features)`` in the data's units: the history, then
-            the generated frames (turn them into world positions with
-            :func:`motionlab.representation.to_positions`).
+        A recurrent model runs as a :class:`MoGlowStream` (the real-time path; ``n``
+        streams as one batch), a Markov one through :meth:`sample`.
         """
-        control = np.asarray(control, dtype=np.float32)
-        history = np.asarray(history, dtype=np.float32)
-        control = np.broadcast_to(control, (n, *control.shape)) if control.ndim == 2 else control
-        history = np.broadcast_to(history, (n, *history.shape)) if history.ndim == 2 else history
-        if control.ndim != 3 or len(control) != n or len(history) != n:
-            raise ValueError(f"control, history: expected (frames, c) / (tau, f) or {n} of each, "
-                             f"got {control.shape} and {history.shape}")
-        stream = self.stream(torch.tensor(history), temperature, torch.Generator().manual_seed(seed), normalizer)
-        frames = stream.run(torch.tensor(control)).cpu().numpy()
-        return np.concatenate([history, frames], axis=1)
+        n, temperature = self._check_common(n, temperature, seed)
+        control = self._control_array(control, n, frames)
+        history = self._prefix_array(prefix, n, min_frames=self.config.history)[:, -self.config.history:]
+        if not self.config.recurrent:
+            norm = self._normaliser()
+            control = torch.tensor((control - norm.mean[self.control]) / norm.std[self.control], dtype=torch.float32)
+            history = torch.tensor(norm.normalize(history), dtype=torch.float32)
+            history[..., self.constant] = 0.0
+            return self._result(self.sample(control, history, temperature, generator=generator_for(seed)))
+        stream = self.stream(torch.tensor(history, dtype=torch.float32), temperature, generator_for(seed),
+                             self._normaliser())
+        return self._result_in_data_units(stream.run(torch.tensor(control, dtype=torch.float32)).cpu().numpy())
 
     def stream(self, history: torch.Tensor, temperature: float = 1.0, generator: torch.Generator | None = None,
                normalizer=None, weights: torch.dtype = torch.float32) -> "MoGlowStream":
@@ -422,13 +395,13 @@ class MoGlowStream:
         if not (math.isfinite(self.temperature) and self.temperature >= 0):
             raise ValueError(f"temperature: expected a finite number >= 0, got {temperature}")
         device = model.modelled.device
-        history = model._history_tensor(history)
+        history = model.check_history(history)
         if normalizer is not None:
             self._mean = torch.as_tensor(np.asarray(normalizer.mean), dtype=torch.float32, device=device)
             self._std = torch.as_tensor(np.asarray(normalizer.std), dtype=torch.float32, device=device)
             history = (history - self._mean) / self._std
             history[..., model.constant] = 0.0
-        model._check(history, "history", min_frames=model.config.history)
+        model.check_features(history, "history", min_frames=model.config.history)
         self.batch = history.shape[0]
         self.poses = history[..., model.modelled].clone()               # (batch, τ, n_modelled)
         self.controls = history[..., model.control].clone()             # (batch, τ, n_control)
@@ -502,7 +475,8 @@ class MoGlowStream:
             control = self._normalised_control(control)
             shape = (self.batch, model.n_modelled)
             if noise is None:
-                noise = torch.randn(shape, generator=self.generator, device=self.poses.device)
+                device = self.generator.device if self.generator is not None else self.poses.device
+                noise = torch.randn(shape, generator=self.generator, device=device).to(self.poses.device)
             elif tuple(noise.shape) != shape:
                 raise ValueError(f"noise: expected {shape}, got {tuple(noise.shape)}")
             controls = torch.cat([self.controls, control[:, None]], dim=1)       # c_{t-τ .. t}
@@ -535,81 +509,3 @@ class MoGlowStream:
                              f"got {tuple(control.shape)}")
         frames = [self.step(control[:, t], None if noise is None else noise[:, t]) for t in range(control.shape[1])]
         return torch.stack(frames, dim=1)
-
-
-# ----------------------------------------------------------------------------------------
-# The findings of §5.3 as measurements (notebook 06, benchmarks/moglow.py)
-# ----------------------------------------------------------------------------------------
-
-def control_following(model: MoGlow, normalizer, start, temperature: float = 0.3, seconds: float = 4.0,
-                      seed: int = 0, smooth_s: float = 0.1) -> dict[str, float]:
-    """Does the body do what the control says (§5.3)? From real frames ``start``
-    ``(n, τ, n_features)`` (data units, e.g. walking), generate ``seconds`` with the control
-    of standing still and, separately, of walking at 1.3 m/s (through the synthetic walker);
-    return how fast the feet step relative to the body (:func:`motionlab.metrics.stepping_speed`,
-    ankles smoothed over ``smooth_s`` s, m/s) over the last half of each. A model that
-    follows the control steps when told to walk and stops when told to stand still.
-    """
-    from .. import metrics, synthetic
-    fps = model.config.fps
-    controls = {"stand still": synthetic.preset_control("stand still", seconds, fps),
-                "walk": synthetic.walked_control(synthetic.preset_control("walk", seconds, fps, ramp_s=0.01), fps)}
-    start = np.asarray(start)
-    half = int(seconds * fps / 2)
-    result = {}
-    for name, control in controls.items():
-        motion = model.generate(control, start, normalizer, n=len(start), temperature=temperature, seed=seed)
-        speed = metrics.stepping_speed(motion[:, model.config.history:], fps, smooth_s=smooth_s)
-        result[name] = float(speed[:, -half:].mean())
-    return result
-
-
-def long_sample_spread(model: MoGlow, normalizer, start, control, temperature: float = 0.3, seed: int = 0,
-                       window_s: float = 5.0) -> dict[str, float]:
-    """Does a long sample freeze into a static pose (§5.3)? Follow ``control`` ``(frames, 3)``
-    (data units) from ``start`` ``(n, τ, n_features)`` and return the pose spread
-    (:func:`motionlab.metrics.pose_spread`, metres) of the first and the last ``window_s``
-    seconds, averaged over the ``n`` samples."""
-    from .. import metrics
-    frames = int(window_s * model.config.fps)
-    if len(control) < 2 * frames:
-        raise ValueError(f"control: {len(control)} frames is shorter than two windows of {window_s} s")
-    motion = model.generate(control, np.asarray(start), normalizer, n=len(start), temperature=temperature,
-                            seed=seed)[:, model.config.history:]
-    return {"first": float(metrics.pose_spread(motion[:, :frames]).mean()),
-            "last": float(metrics.pose_spread(motion[:, -frames:]).mean())}
-
-
-# ----------------------------------------------------------------------------------------
-# Trained models for the notebooks
-# ----------------------------------------------------------------------------------------
-
-CHECKPOINTS = Path(__file__).resolve().parents[2] / "data" / "checkpoints"
-"""The repository's ``data/checkpoints``: MoGlow models made by ``make checkpoints``."""
-
-VARIANTS = {"dropout": {}, "no_dropout": {"dropout": 0.0}, "markov": {"recurrent": False},
-            "markov_matched": {"recurrent": False, "hidden": 205}}
-"""The models notebook 06 compares, as changes to a base config. ``markov_matched`` is the
-Markov model widened to as many weights as the laptop LSTM model (803 k), for a fair
-comparison of the two at the laptop size."""
-
-
-def train_or_load(prepared, variant: str = "dropout", config: MoGlowConfig = MoGlowConfig(), epochs: int = 40,
-                  retrain: bool = False, cache: str | Path | None = None):
-    """A trained MoGlow ``variant`` (a key of :data:`VARIANTS`) of
-    ``config`` for the data ``prepared`` (:func:`motionlab.data.prepare`), and its history.
-
-    Uses the shipped checkpoint ``data/checkpoints/moglow_<variant>.pt`` when it holds this
-    config trained on data made the same way; otherwise trains for ``epochs`` (Adam 3e-3,
-    batches of 32, as ``make checkpoints`` does) and caches the result in ``cache``
-    (default ``data/cache/moglow_<variant>.pt``). ``retrain=True`` always trains.
-    """
-    from .. import training
-    if variant not in VARIANTS:
-        raise ValueError(f"variant: expected one of {', '.join(VARIANTS)}, got {variant!r}")
-    torch.manual_seed(0)
-    model = MoGlow(replace(config, **VARIANTS[variant]))
-    cache = Path(cache) if cache is not None else CHECKPOINTS.parent / "cache" / f"moglow_{variant}.pt"
-    return training.train_or_load(cache, model, prepared,
-                                  training.TrainConfig(epochs=epochs, batch_size=32, lr=3e-3, progress=False),
-                                  retrain=retrain, pretrained=CHECKPOINTS / f"moglow_{variant}.pt")

@@ -21,13 +21,15 @@ rises from 0 to ``beta`` over the first training steps).
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, replace
 from typing import Callable
 
 import numpy as np
 import torch
 from torch import nn
+
+from . import gaussian
+from .base import Generated, GenerativeModel, generator_for
 
 
 @dataclass(frozen=True)
@@ -64,16 +66,6 @@ class VAEConfig:
         return replace(cls(n_inputs=1920, hidden=256, latent=32), **changes)
 
 
-def gaussian_kl(mu: torch.Tensor, log_var: torch.Tensor) -> torch.Tensor:
-    """KL(N(mu, exp(log_var)) || N(0, 1)) per dimension (§IV-B), same shape as ``mu``."""
-    return -0.5 * (1 + log_var - mu ** 2 - log_var.exp())
-
-
-def gaussian_nll(y: torch.Tensor, mu: torch.Tensor, log_var: torch.Tensor) -> torch.Tensor:
-    """-log N(y | mu, exp(log_var)) per dimension, in nats."""
-    return 0.5 * (math.log(2 * math.pi) + log_var + (y - mu) ** 2 / log_var.exp())
-
-
 class FeatureVAE(nn.Module):
     """Motegi's VAE on flattened conv-autoencoder features ``(batch, n_inputs)``."""
 
@@ -104,15 +96,6 @@ class FeatureVAE(nn.Module):
         mu, log_var = self.decoder(z).chunk(2, dim=-1)
         return mu, log_var.clamp(min=self.config.min_log_var)
 
-    @staticmethod
-    def reparameterize(mu: torch.Tensor, log_var: torch.Tensor) -> torch.Tensor:
-        """z = μ + σ ⊙ ε with ε ~ N(0, I) (§IV-B, Fig. 6).
-
-        The paper writes ``ε ⊙ σ²``; the standard deviation σ is what turns a standard
-        normal ε into a sample of N(μ, σ²), so we multiply by σ = exp(½ log σ²).
-        """
-        return mu + (0.5 * log_var).exp() * torch.randn_like(mu)
-
     def kl_weight(self) -> float:
         """β, ramped up linearly over the first ``kl_warmup_steps`` training steps."""
         if self.config.kl_warmup_steps == 0:
@@ -124,10 +107,12 @@ class FeatureVAE(nn.Module):
         (so the learning rate does not depend on the feature size). Logged per example:
         ``reconstruction`` (E, nats), ``kl`` (D, nats) and ``elbo`` (-(E + D), nats)."""
         mu, log_var = self.encode(batch)
-        z = self.reparameterize(mu, log_var)
+        # z = μ + σ ⊙ ε, ε ~ N(0, I) (§IV-B, Fig. 6). The paper writes ε ⊙ σ²; σ is what turns
+        # a standard normal ε into a sample of N(μ, σ²).
+        z = gaussian.sample(mu, log_var)
         y_mu, y_log_var = self.decode(z)
-        reconstruction = gaussian_nll(batch, y_mu, y_log_var).sum(-1).mean()
-        kl = gaussian_kl(mu, log_var).sum(-1).mean()
+        reconstruction = gaussian.negative_log_likelihood(batch, y_mu, y_log_var).sum(-1).mean()    # E
+        kl = gaussian.kl_divergence(mu, log_var).sum(-1).mean()                                    # D
         weight = self.kl_weight()
         if self.training:
             self.steps_seen += 1
@@ -143,7 +128,7 @@ class FeatureVAE(nn.Module):
         fills it with noise the decoder has learned to ignore (posterior collapse).
         """
         mu, log_var = self.encode(y)
-        return gaussian_kl(mu, log_var).mean(0)
+        return gaussian.kl_divergence(mu, log_var).mean(0)
 
     @torch.no_grad()
     def sample_latents(self, n: int, generator: torch.Generator | None = None) -> torch.Tensor:
@@ -169,14 +154,15 @@ def traversal(z: torch.Tensor, axis: int, probabilities=np.linspace(0.1, 0.9, 9)
     return out
 
 
-class MotionVAE:
+class MotionVAE(GenerativeModel):
     """The generative model of §V: the VAE stacked under the frozen convolutional decoder.
 
     Args:
         vae: a trained :class:`FeatureVAE`.
         conv_ae: the trained (frozen) ``ConvAutoencoder`` whose features the VAE models.
         feature_normalizer: standardises the flattened conv features for the VAE.
-        motion_normalizer: the normaliser of the motion windows the conv AE was trained on.
+        motion_normalizer: the normaliser of the motion windows the conv AE was trained on
+            (``self.normalizer``, so :meth:`generate` works in the data's units).
 
     ``decode(z)`` -> motion features ``(n, window, 66)`` in data units (metres, m/s, rad/s),
     ready for ``representation.to_positions``.
@@ -184,11 +170,15 @@ class MotionVAE:
 
     def __init__(self, vae: FeatureVAE, conv_ae, feature_normalizer, motion_normalizer):
         self.vae, self.conv_ae = vae.eval(), conv_ae.eval()
-        self.feature_normalizer, self.motion_normalizer = feature_normalizer, motion_normalizer
+        self.feature_normalizer, self.normalizer = feature_normalizer, motion_normalizer
         cfg = conv_ae.config
         if vae.config.n_inputs != cfg.window // 2 * cfg.filters:
             raise ValueError(f"vae: n_inputs {vae.config.n_inputs} does not match the conv AE's "
                              f"{cfg.window // 2} x {cfg.filters} features")
+
+    @property
+    def fps(self) -> float:
+        return self.conv_ae.config.fps
 
     @torch.no_grad()
     def features(self, windows: torch.Tensor) -> torch.Tensor:
@@ -197,13 +187,16 @@ class MotionVAE:
         return self.feature_normalizer.normalize(y)
 
     @torch.no_grad()
-    def decode(self, z: torch.Tensor) -> np.ndarray:
-        """x̃ = Φ'(μ_θ(z)) (§V): latents ``(n, latent)`` -> motion features ``(n, window, 66)``."""
+    def decode_normalised(self, z: torch.Tensor) -> torch.Tensor:
+        """x̃ = Φ'(μ_θ(z)) (§V): latents ``(n, latent)`` -> normalised motion ``(n, window, 66)``."""
         y_mu, _ = self.vae.decode(torch.as_tensor(z, dtype=torch.float32))
         y = self.feature_normalizer.denormalize(y_mu)
         cfg = self.conv_ae.config
-        x = self.conv_ae.decode(y.reshape(len(y), cfg.window // 2, cfg.filters))
-        return self.motion_normalizer.denormalize(x.numpy())
+        return self.conv_ae.decode(y.reshape(len(y), cfg.window // 2, cfg.filters))
+
+    def decode(self, z: torch.Tensor) -> np.ndarray:
+        """Latents ``(n, latent)`` -> motion features ``(n, window, 66)`` in the data's units."""
+        return self.normalizer.denormalize(self.decode_normalised(z).numpy())
 
     @torch.no_grad()
     def reconstruct(self, windows: torch.Tensor) -> np.ndarray:
@@ -211,9 +204,23 @@ class MotionVAE:
         mu, _ = self.vae.encode(self.features(windows))
         return self.decode(mu)
 
-    def sample(self, n: int, seed: int = 0) -> np.ndarray:
-        """``n`` new motions from the prior, ``(n, window, 66)`` in data units."""
-        return self.decode(self.vae.sample_latents(n, torch.Generator().manual_seed(seed)))
+    def sample(self, n: int, temperature: float = 1.0, generator: torch.Generator | None = None) -> torch.Tensor:
+        """``n`` motions from the prior ``z ~ N(0, temperature² I)``: normalised ``(n, window, 66)``."""
+        return self.decode_normalised(temperature * self.vae.sample_latents(n, generator))
+
+    def generate(self, control=None, *, frames=None, prefix=None, n=1, temperature=1.0, seed=0) -> Generated:
+        """``n`` new windows from the prior (§V); see :mod:`motionlab.models.base`.
+
+        Motegi's VAE has no control input: ``control`` is ignored. It draws whole windows of
+        ``conv_ae.config.window`` frames (``frames`` must be that or ``None``) and does not
+        continue a ``prefix``.
+        """
+        n, temperature = self._check_common(n, temperature, seed)
+        self._refuse_prefix(prefix)
+        window = self.conv_ae.config.window
+        if frames is not None and frames != window:
+            raise ValueError(f"frames: this VAE draws windows of {window} frames, got {frames!r}")
+        return self._result(self.sample(n, temperature, generator_for(seed)))
 
 
 def axis_effects(decode: Callable[[torch.Tensor], np.ndarray], latent: int,

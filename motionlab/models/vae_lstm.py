@@ -37,6 +37,9 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
+from . import gaussian
+from .base import Generated, GenerativeModel, eval_mode, generator_for
+
 POOLING = 4
 """Frames per canvas step: two max-pooling layers, each halving the frame rate (§4.2)."""
 
@@ -212,23 +215,21 @@ class CanvasDecoder(nn.Module):
         return self.conv1(self._up(h)).transpose(1, 2)
 
 
-def gaussian_kl(mu: torch.Tensor, logvar: torch.Tensor) -> torch.Tensor:
-    """``KL(N(mu, exp(logvar)) || N(0, I))`` per step, summed over latent dimensions:
-    ``(..., units)`` -> ``(...)`` nats. The terms of eq. 4."""
-    return 0.5 * (mu.pow(2) + logvar.exp() - 1.0 - logvar).sum(-1)
-
-
 # ----------------------------------------------------------------------------------------
 # The model
 # ----------------------------------------------------------------------------------------
 
-class VAELSTM(nn.Module):
+class VAELSTM(GenerativeModel, nn.Module):
     """Habibie et al.'s VAE-LSTM: control signal in, full-body motion out.
 
     Training: ``loss(batch)`` on windows ``(batch, frames, n_pose + n_control)``.
-    Generation: :meth:`generate` from a control signal ``(batch, frames, n_control)``,
-    from the prior (Algorithm 1) or primed with 4 frames (§4.3).
+    Generation: :meth:`generate` from a control path in the data's units (or the low-level
+    :meth:`sample` on normalised tensors), from the prior (Algorithm 1) or primed with 4
+    frames (§4.3).
     """
+
+    follows_control = True
+    continues_motion = True
 
     def __init__(self, config: VAELSTMConfig = VAELSTMConfig()):
         super().__init__()
@@ -348,16 +349,14 @@ class VAELSTM(nn.Module):
         pose, control = padded[..., :self.config.n_pose], padded[..., self.config.n_pose:]
         code = self.encode_control(control)
         mu, logvar = self.posterior(pose)
-        z = mu + (0.5 * logvar).exp() * torch.randn_like(mu) if sample else mu     # eq. 3
+        z = gaussian.sample(mu, logvar) if sample else mu                           # eq. 3
         canvas = self.canvas(code, z)
         return {"reconstruction": self.decode(canvas)[:, :frames], "mu": mu, "logvar": logvar,
                 "z": z, "canvas": canvas, "control_code": code}
 
     def _neg_log_likelihood(self, prediction: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
         """``-log N(target | prediction, std^2 I)`` summed over features: ``(batch, frames)`` nats."""
-        std = self.config.observation_std
-        squared = ((prediction - target) / std).pow(2)
-        return (0.5 * squared + math.log(std) + 0.5 * math.log(2 * math.pi)).sum(-1)
+        return gaussian.negative_log_likelihood(target, prediction, std=self.config.observation_std).sum(-1)
 
     def l1_penalty(self) -> torch.Tensor:
         """Mean absolute value of every weight matrix and filter (not the biases)."""
@@ -377,7 +376,7 @@ class VAELSTM(nn.Module):
         out = self(batch)
         frames = batch.shape[1]
         nll = self._neg_log_likelihood(out["reconstruction"], batch).sum(1) / frames     # L_x
-        kl = gaussian_kl(out["mu"], out["logvar"]).sum(1) / frames                       # L_z, eq. 4
+        kl = gaussian.kl_divergence(out["mu"], out["logvar"]).sum(-1).sum(1) / frames    # L_z, eq. 4
         total = (nll + kl).mean() + self.config.l1 * self.l1_penalty()
         terms = {"nll": nll.mean(), "kl": kl.mean(),
                  "mse": F.mse_loss(out["reconstruction"], batch).detach()}
@@ -391,42 +390,55 @@ class VAELSTM(nn.Module):
     # -- generation ----------------------------------------------------------------------
 
     @torch.no_grad()
-    def generate(self, control: torch.Tensor, initial: torch.Tensor | None = None,
-                 mean: bool = False, generator: torch.Generator | None = None) -> torch.Tensor:
+    def sample(self, control: torch.Tensor, prefix: torch.Tensor | None = None, temperature: float = 1.0,
+               generator: torch.Generator | None = None) -> torch.Tensor:
         """Motion for a control signal: Algorithm 1, or primed with initial frames (§4.3).
 
         Args:
             control: ``(batch, frames, n_control)``, normalised, for the whole sequence;
                 any number of frames (padded to a multiple of 4 with the last value).
-            initial: ``None``: ``z_1`` is drawn from the prior ``N(0, I)`` (Algorithm 1).
+            prefix: ``None``: ``z_1`` is drawn from the prior ``N(0, I)`` (Algorithm 1).
                 Or ``(batch, k >= 4, n_pose or n_features)`` first frames: ``z_1`` is drawn
                 from the posterior of its first canvas step (4 frames = one step, §4.3).
-            mean: take the mean of ``z_1``'s distribution instead of a sample.
+            temperature: scales ``z_1``'s standard deviation (0: the mean).
             generator: a ``torch.Generator`` for reproducible samples.
 
-        Returns ``(batch, frames, n_features)`` normalised features; the control columns
-        are the given ``control`` (the model follows it; its own reconstruction of the
-        control is only a training target).
+        Returns ``(batch, frames, n_features)`` normalised features for the control's
+        frames (with a prefix, the first ``k`` are the model's rendering of it); the control
+        columns are the given ``control`` (the model follows it; its own reconstruction of
+        the control is only a training target).
         """
         self._check(control, "control", self.config.n_control)
         batch, frames = control.shape[:2]
-        was_training = self.training
-        self.eval()
-        code = self.encode_control(pad_to_canvas(control))
-        if initial is None:
-            mu = torch.zeros(batch, 1, self.config.units, device=control.device)
-            logvar = torch.zeros_like(mu)
-        else:
-            self._check(initial, "initial", (self.config.n_pose, self.config.n_features), min_frames=POOLING)
-            if initial.shape[0] != batch:
-                raise ValueError(f"initial: expected {batch} sequences like control, got {initial.shape[0]}")
-            mu, logvar = self.posterior(pad_to_canvas(initial[..., :self.config.n_pose]))
-            mu, logvar = mu[:, :1], logvar[:, :1]
-        noise = torch.randn(mu.shape, generator=generator, device=mu.device)
-        z1 = mu if mean else mu + (0.5 * logvar).exp() * noise
-        motion = self.decode(self.canvas(code, z1))[:, :frames]
-        self.train(was_training)
+        with eval_mode(self):
+            code = self.encode_control(pad_to_canvas(control))
+            if prefix is None:
+                mu = torch.zeros(batch, 1, self.config.units, device=control.device)
+                logvar = torch.zeros_like(mu)
+            else:
+                self._check(prefix, "prefix", (self.config.n_pose, self.config.n_features), min_frames=POOLING)
+                if prefix.shape[0] != batch:
+                    raise ValueError(f"prefix: expected {batch} sequences like control, got {prefix.shape[0]}")
+                mu, logvar = self.posterior(pad_to_canvas(prefix[..., :self.config.n_pose]))
+                mu, logvar = mu[:, :1], logvar[:, :1]
+            z1 = gaussian.sample(mu, logvar, temperature, generator)
+            motion = self.decode(self.canvas(code, z1))[:, :frames]
         return torch.cat([motion[..., :self.config.n_pose], control], dim=-1)
+
+    def generate(self, control=None, *, frames=None, prefix=None, n=1, temperature=1.0, seed=0) -> Generated:
+        """Follow the ``control`` path (required); see :mod:`motionlab.models.base`.
+
+        The output has the control's frames. Without a ``prefix`` the first latent comes from
+        the prior (Algorithm 1); with one (``k >= 4`` real frames) from its posterior (§4.3),
+        and the first ``k`` frames of the result are the model's rendering of the prefix.
+        """
+        n, temperature = self._check_common(n, temperature, seed)
+        control = self._normalised_control(control, n, frames)
+        if prefix is not None:
+            prefix = self._normalised_prefix(prefix, n, min_frames=POOLING)
+        device = next(self.parameters()).device
+        return self._result(self.sample(control.to(device), None if prefix is None else prefix.to(device),
+                                        temperature, generator_for(seed)))
 
     @torch.no_grad()
     def reconstruct(self, x: torch.Tensor, free_running: bool = False) -> torch.Tensor:
@@ -434,23 +446,18 @@ class VAELSTM(nn.Module):
         from the posterior means: every ``mu_s`` driving the cell (the training form), or
         only ``mu_1`` (``free_running=True``, the test-time form). Control columns are
         returned as decoded."""
-        was_training = self.training
-        self.eval()
         self._check(x, "x", self.config.n_features)
         padded = pad_to_canvas(x)
-        code = self.encode_control(padded[..., self.config.n_pose:])
-        mu, _ = self.posterior(padded[..., :self.config.n_pose])
-        out = self.decode(self.canvas(code, mu[:, :1] if free_running else mu))[:, :x.shape[1]]
-        self.train(was_training)
-        return out
+        with eval_mode(self):
+            code = self.encode_control(padded[..., self.config.n_pose:])
+            mu, _ = self.posterior(padded[..., :self.config.n_pose])
+            return self.decode(self.canvas(code, mu[:, :1] if free_running else mu))[:, :x.shape[1]]
 
     def trace(self, x: torch.Tensor) -> list[tuple[str, tuple[int, ...]]]:
         """The shape of a window ``x`` at every stage, for a walk-through of the model."""
         self._check(x, "x", self.config.n_features)
-        was_training = self.training
-        with torch.no_grad():
-            out = self.eval()(x, sample=False)
-        self.train(was_training)
+        with torch.no_grad(), eval_mode(self):
+            out = self(x, sample=False)
         padded = pad_to_canvas(x)
         c = self.config
         return [("window (batch, frames, pose + control)", tuple(x.shape)),

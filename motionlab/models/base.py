@@ -1,0 +1,165 @@
+"""The one generation contract every generative model in motionlab follows.
+
+Each model file is written beside its paper, but they all answer the same call::
+
+    result = model.generate(control=None, *, frames=None, prefix=None, n=1, temperature=1.0, seed=0)
+    result.positions      # (n, frames, 21, 3) world joint positions, metres
+    result.features       # (n, frames, 66) features in the data's units (m, m/s, rad/s)
+    result.fps            # frames per second
+
+* ``control``: the path to follow, ``(frames, 3)`` (the same for all ``n``) or ``(n, frames,
+  3)``: forward and sideways velocity (m/s) and turning velocity (rad/s) of every frame to
+  generate (:data:`motionlab.representation.CONTROL`). Models without a control input
+  (Motegi's VAE, an unconditional Glow, DFN) ignore it and say so in their docstring.
+* ``frames``: how many frames to generate (for a controlled model: the control's length).
+* ``prefix``: real frames to continue, ``(k, 66)`` or ``(n, k, 66)``, data units, for the
+  models that continue motion (LSTM, MoGlow, DFN; the VAE-LSTM draws its first latent from
+  it). The result holds only what the model generated: the prefix is never prepended.
+* ``n`` samples, the prior's ``temperature`` (1: the model; 0: its most likely path, where
+  it has one) and the ``seed`` of the noise, so a call is reproducible.
+
+Generation works in the data's units because the model carries the
+:class:`motionlab.data.Normalizer` of its training data as ``model.normalizer`` (set by
+:func:`motionlab.training.train`, :func:`motionlab.training.load_checkpoint` and
+:func:`motionlab.pretrained.load`). Under it, each model keeps a low-level sampler called
+``sample`` that takes and returns normalised tensors and a ``generator=``.
+
+Conv autoencoders do not generate; they reconstruct (:meth:`ConvAutoencoder.forward`).
+"""
+from __future__ import annotations
+
+from contextlib import contextmanager
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+
+from .. import checks
+from ..representation import CONTROL, N_POSE, to_positions
+
+N_FEATURES = N_POSE + 3
+"""Features per frame: 63 root-local joint coordinates, then the 3 control values."""
+
+
+@dataclass(frozen=True)
+class Generated:
+    """What :meth:`generate` returns.
+
+    Attributes:
+        features: ``(n, frames, 66)`` in the data's units: root-local joint positions (m),
+            then forward/sideways velocity (m/s) and turning velocity (rad/s).
+        positions: ``(n, frames, 21, 3)`` world joint positions (m), each sample integrated
+            from the origin facing ``+z`` (:func:`motionlab.representation.to_positions`).
+        fps: frames per second.
+    """
+
+    features: np.ndarray
+    positions: np.ndarray
+    fps: float
+
+    @property
+    def seconds(self) -> float:
+        """Duration of each sample."""
+        return self.features.shape[1] / self.fps
+
+    def __repr__(self) -> str:
+        n, frames = self.features.shape[:2]
+        return f"Generated({n} samples x {frames} frames at {self.fps:g} fps = {self.seconds:.2f} s)"
+
+
+@contextmanager
+def eval_mode(model: torch.nn.Module):
+    """Evaluation mode (no dropout, running statistics) inside the block; the model's own
+    mode is restored afterwards, also when the block raises."""
+    was_training = model.training
+    model.eval()
+    try:
+        yield model
+    finally:
+        model.train(was_training)
+
+
+def generator_for(seed) -> torch.Generator:
+    """A CPU ``torch.Generator`` seeded with ``seed`` (a whole number >= 0)."""
+    return torch.Generator().manual_seed(checks.whole(seed, "seed", 0))
+
+
+class GenerativeModel:
+    """Mixin for the models that generate: the checks and unit conversions of the contract.
+
+    A model sets ``continues_motion`` (does ``prefix`` mean anything to it?) and
+    ``follows_control`` and implements ``generate`` with these helpers.
+    """
+
+    normalizer = None
+    follows_control = False
+    continues_motion = False
+
+    def _normaliser(self):
+        if self.normalizer is None:
+            raise ValueError(f"{type(self).__name__}: no normaliser, so generate() cannot work in the data's units; "
+                             "train it with training.train, load it with training.load_checkpoint or "
+                             "pretrained.load, or set model.normalizer (or use the low-level sample())")
+        return self.normalizer
+
+    @staticmethod
+    def _check_common(n, temperature, seed) -> tuple[int, float]:
+        """``n`` and ``temperature`` checked (and ``seed``, even where nothing is random)."""
+        checks.whole(seed, "seed", 0)
+        return checks.whole(n, "n", 1), checks.non_negative(temperature, "temperature")
+
+    def _control_array(self, control, n: int, frames: int | None = None) -> np.ndarray:
+        """``control`` ``(frames, 3)`` or ``(n, frames, 3)`` in the data's units, checked,
+        as ``(n, frames, 3)``."""
+        if control is None:
+            raise ValueError(f"control: {type(self).__name__} follows a control path; give (frames, 3) or "
+                             f"({n}, frames, 3): forward, sideways (m/s) and turning (rad/s) velocity")
+        control = checks.array(control, "control", (..., "frames", 3))
+        if control.ndim == 2:
+            control = np.broadcast_to(control, (n, *control.shape))
+        if control.ndim != 3 or len(control) != n:
+            raise ValueError(f"control: expected (frames, 3) or ({n}, frames, 3) for n={n}, got {control.shape}")
+        if frames is not None and control.shape[1] != frames:
+            raise ValueError(f"frames: {frames} does not match the control's {control.shape[1]} frames")
+        return control
+
+    def _prefix_array(self, prefix, n: int, min_frames: int = 1) -> np.ndarray:
+        """``prefix`` ``(k, 66)`` or ``(n, k, 66)`` in the data's units, checked, as ``(n, k, 66)``."""
+        if prefix is None:
+            raise ValueError(f"prefix: {type(self).__name__} continues motion; give at least {min_frames} "
+                             f"real frames, (k, {N_FEATURES}) or ({n}, k, {N_FEATURES}) in the data's units")
+        prefix = checks.array(prefix, "prefix", (..., "frames", N_FEATURES))
+        if prefix.ndim == 2:
+            prefix = np.broadcast_to(prefix, (n, *prefix.shape))
+        if prefix.ndim != 3 or len(prefix) != n or prefix.shape[1] < min_frames:
+            raise ValueError(f"prefix: expected (k >= {min_frames}, {N_FEATURES}) or ({n}, k, {N_FEATURES}), "
+                             f"got {prefix.shape}")
+        return prefix
+
+    def _normalised_control(self, control, n: int, frames: int | None = None) -> torch.Tensor:
+        """:meth:`_control_array`, normalised: a float32 tensor ``(n, frames, 3)``."""
+        control = self._control_array(control, n, frames)
+        norm = self._normaliser()
+        return torch.tensor((control - norm.mean[CONTROL]) / norm.std[CONTROL], dtype=torch.float32)
+
+    def _normalised_prefix(self, prefix, n: int, min_frames: int = 1) -> torch.Tensor:
+        """:meth:`_prefix_array`, normalised: a float32 tensor ``(n, k, 66)``."""
+        prefix = self._prefix_array(prefix, n, min_frames)
+        return torch.tensor(self._normaliser().normalize(prefix), dtype=torch.float32)
+
+    def _refuse_prefix(self, prefix) -> None:
+        if prefix is not None:
+            raise ValueError(f"prefix: {type(self).__name__} does not continue motion; it draws whole windows")
+
+    def _result(self, normalised: torch.Tensor) -> Generated:
+        """Normalised features ``(n, frames, 66)`` -> :class:`Generated` in the data's units."""
+        return self._result_in_data_units(self._normaliser().denormalize(normalised.detach().cpu().double().numpy()))
+
+    def _result_in_data_units(self, features) -> Generated:
+        features = np.asarray(features, dtype=np.float64)
+        return Generated(features, to_positions(features, self.fps), float(self.fps))
+
+    @property
+    def fps(self) -> float:
+        """Frames per second of the data the model was made for."""
+        return self.config.fps

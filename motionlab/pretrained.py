@@ -1,0 +1,105 @@
+"""The trained models shipped with the course, ready to generate.
+
+``data/checkpoints`` holds weights made by ``make checkpoints`` (the command line,
+``python -m motionlab.train``, on the built-in synthetic data). Each file holds the model's
+config, its weights, the normaliser of its training data and how that data was made::
+
+    from motionlab import pretrained
+    pretrained.available()                       # ['moglow', 'moglow_markov', ...]
+    model = pretrained.load("moglow")            # ready: eval mode, normaliser attached
+    motion = model.generate(control, prefix=start, n=4, seed=0)
+
+:func:`train_or_load` is what the notebooks call: the shipped checkpoint when it fits the
+notebook's config and data, else a model trained now (and cached in ``data/cache``).
+
+Loading never runs code from a file: only motionlab's registered model classes are built
+(:func:`motionlab.training.load_checkpoint`).
+"""
+from __future__ import annotations
+
+from dataclasses import replace
+from pathlib import Path
+
+import torch
+
+from . import training
+from .models.moglow import MoGlow, MoGlowConfig
+
+CHECKPOINTS = Path(__file__).resolve().parents[1] / "data" / "checkpoints"
+"""The repository's ``data/checkpoints``."""
+
+CACHE = CHECKPOINTS.parent / "cache"
+"""Where notebooks cache the models they train (ignored by git)."""
+
+MOGLOW_VARIANTS = {"dropout": {}, "no_dropout": {"dropout": 0.0}, "markov": {"recurrent": False},
+                   "markov_matched": {"recurrent": False, "hidden": 205}}
+"""The MoGlow models notebook 06 compares, as changes to a base config. ``markov_matched``
+is the Markov model widened to as many weights as the laptop LSTM model (803 k), for a
+fair comparison of the two at the laptop size."""
+
+NAMES = {"moglow": "moglow_dropout.pt", "moglow_no_dropout": "moglow_no_dropout.pt",
+         "moglow_markov": "moglow_markov.pt", "moglow_markov_matched": "moglow_markov_matched.pt"}
+"""Model name -> file in :data:`CHECKPOINTS`. ``"moglow"`` is MoGlow as the paper trains
+it (with history dropout, §5.3); the others are the variants of notebook 06."""
+
+
+def available() -> list[str]:
+    """The names :func:`load` accepts whose checkpoint is present, sorted."""
+    return sorted(name for name, file in NAMES.items() if (CHECKPOINTS / file).is_file())
+
+
+def path(name: str) -> Path:
+    """The checkpoint file of the shipped model ``name``."""
+    if name not in NAMES:
+        raise ValueError(f"name: expected one of {', '.join(sorted(NAMES))}, got {name!r}")
+    return CHECKPOINTS / NAMES[name]
+
+
+def load(name: str, device: str = "cpu") -> torch.nn.Module:
+    """The shipped model ``name`` (see :func:`available`), in eval mode on ``device``, with
+    its normaliser as ``model.normalizer`` and its training history as ``model.history``."""
+    file = path(name)
+    if not file.is_file():
+        raise ValueError(f"name: the checkpoint of {name!r} is missing ({file}); run `make checkpoints`")
+    checkpoint = training.load_checkpoint(file, device=device)
+    checkpoint.model.history = checkpoint.history
+    checkpoint.model.description = checkpoint.description
+    return checkpoint.model
+
+
+def train_or_load(prepared, variant: str = "dropout", config: MoGlowConfig = MoGlowConfig(), epochs: int = 40,
+                  retrain: bool = False, cache: str | Path | None = None):
+    """A trained MoGlow ``variant`` (a key of :data:`MOGLOW_VARIANTS`) of ``config`` for the
+    data ``prepared`` (:func:`motionlab.data.prepare`), and its history.
+
+    Uses the shipped checkpoint when it holds this config trained on data made the same
+    way; otherwise trains for ``epochs`` (Adam 3e-3, batches of 32, as ``make checkpoints``
+    does) and caches the result in ``cache`` (default ``data/cache/moglow_<variant>.pt``).
+    ``retrain=True`` always trains.
+    """
+    if variant not in MOGLOW_VARIANTS:
+        raise ValueError(f"variant: expected one of {', '.join(MOGLOW_VARIANTS)}, got {variant!r}")
+    torch.manual_seed(0)
+    model = MoGlow(replace(config, **MOGLOW_VARIANTS[variant]))
+    cache = Path(cache) if cache is not None else CACHE / f"moglow_{variant}.pt"
+    shipped = path("moglow" if variant == "dropout" else f"moglow_{variant}")
+    return training.train_or_load(cache, model, prepared,
+                                  training.TrainConfig(epochs=epochs, batch_size=32, lr=3e-3, progress=False),
+                                  retrain=retrain, pretrained=shipped)
+
+
+def load_motion_vae(path: str | Path):
+    """The :class:`motionlab.models.vae.MotionVAE` of a ``vae`` checkpoint made by
+    ``python -m motionlab.train vae --conv-ae CONV_AE.pt``: the VAE, and the conv AE whose
+    path it names (as given when training, or relative to the VAE's folder)."""
+    from .data import Normalizer
+    from .models.vae import MotionVAE
+    vae = training.load_checkpoint(path)
+    if "conv_ae" not in vae.description or "motion_normalizer" not in vae.description:
+        raise ValueError(f"{path}: not a vae checkpoint of the command line (no conv_ae / motion_normalizer)")
+    conv_ae_path = Path(vae.description["conv_ae"])
+    if not conv_ae_path.exists() and not conv_ae_path.is_absolute():
+        conv_ae_path = Path(path).parent / conv_ae_path.name
+    conv_ae = training.load_checkpoint(conv_ae_path)
+    motion_normalizer = Normalizer.from_state_dict(vae.description["motion_normalizer"])
+    return MotionVAE(vae.model, conv_ae.model, vae.normalizer, motion_normalizer)
