@@ -23,7 +23,7 @@ import torch
 from . import asfamc, checks
 from . import bvh as bvh_io
 from .clip import CMU_UNIT_M, Clip
-from .representation import FACING_SMOOTHING_S, POSE, mirror_features, reverse_features
+from .representation import FACING_SMOOTHING_S, POSE, mirror_features, reverse_features, to_positions
 from .skeleton import CMU_JOINTS, CMU_TO_LOCOMOTION, LOCOMOTION
 
 LOCOMOTION_FROM_CMU = tuple(CMU_JOINTS[i] for i in CMU_TO_LOCOMOTION)
@@ -316,6 +316,19 @@ class MotionData:
     @property
     def fps(self) -> float:
         return self.description["fps"]
+
+    def in_data_units(self, windows) -> np.ndarray:
+        """Normalised windows ``(..., frames, 66)`` (tensor or array) -> features in the data's
+        units (m, m/s, rad/s), a float64 array."""
+        if isinstance(windows, torch.Tensor):
+            windows = windows.detach().cpu().numpy()
+        return self.normalizer.denormalize(np.asarray(windows, dtype=np.float64))
+
+    def world(self, windows) -> np.ndarray:
+        """Normalised windows ``(..., frames, 66)`` -> world joint positions ``(..., frames,
+        21, 3)`` in metres, each window from the origin facing ``+z``
+        (:func:`motionlab.representation.to_positions`)."""
+        return to_positions(self.in_data_units(windows), self.fps)
 
     def summary(self) -> str:
         """A few lines that say what the data is."""

@@ -71,7 +71,7 @@ def test_shapes(prepared):
     out = staged(model, prepared.train.windows).infer(x)
     steps = 20 - SMALL.horizon + 1
     for key, size in [("h", SMALL.past), ("f", SMALL.future), ("z", SMALL.current), ("x_hat", SMALL.code),
-                      ("s_hat", SMALL.summary), ("qz_mu", SMALL.current), ("pf_logvar", SMALL.future)]:
+                      ("s_hat", SMALL.summary), ("qz_mu", SMALL.current), ("pf_log_var", SMALL.future)]:
         assert out[key].shape == (3, steps, size), key
 
 
@@ -85,14 +85,14 @@ def test_each_kl_term_of_the_loss_matches_torch(prepared):
     torch.manual_seed(1)
     with torch.no_grad():
         out = model.infer(batch)
-    normal = lambda mu, logvar: Normal(mu, (0.5 * logvar).exp())          # noqa: E731
-    kl_z = kl_divergence(normal(out["qz_mu"], out["qz_logvar"]), normal(out["pz_mu"], out["pz_logvar"]))
-    kl_f = kl_divergence(normal(out["qf_mu"], out["qf_logvar"]), normal(out["pf_mu"], out["pf_logvar"]))
+    normal = lambda mu, log_var: Normal(mu, (0.5 * log_var).exp())          # noqa: E731
+    kl_z = kl_divergence(normal(out["qz_mu"], out["qz_log_var"]), normal(out["pz_mu"], out["pz_log_var"]))
+    kl_f = kl_divergence(normal(out["qf_mu"], out["qf_log_var"]), normal(out["pf_mu"], out["pf_log_var"]))
     assert float(terms["kl_z"]) == pytest.approx(float(kl_z.sum(-1).mean()), rel=1e-4)   # q(z|x,h,s) || p(z|h,s^)
     assert float(terms["kl_f"]) == pytest.approx(float(kl_f.sum(-1).mean()), rel=1e-4)   # q(f|h,s) || p(f|h)
     td = model.td_terms(out, skip=2)                                                        # §5.5
-    kl_td = kl_divergence(normal(td["td_mu"], td["td_logvar"]),
-                          normal(out["qz_mu"][:, :-2], out["qz_logvar"][:, :-2])).sum(-1)
+    kl_td = kl_divergence(normal(td["td_mu"], td["td_log_var"]),
+                          normal(out["qz_mu"][:, :-2], out["qz_log_var"][:, :-2])).sum(-1)
     assert torch.allclose(td["td_kl"], kl_td, rtol=1e-4, atol=1e-5)
     assert td["td_kl"].shape == (4, out["z"].shape[1] - 2)
     total = sum(float(terms[k]) for k in ("x_nll", "s_nll", "kl_z", "kl_f", "td"))

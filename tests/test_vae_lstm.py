@@ -25,7 +25,7 @@ def test_paper_config_gives_the_sizes_of_section_4_2():
     assert model.decoder.conv1.weight.shape == (66, 128, 25)                # to 66 features
     out = model(torch.randn(1, 240, 66))
     assert out["canvas"].shape == (1, 60, 128)                              # the 128 x 60 canvas
-    assert out["mu"].shape == out["logvar"].shape == (1, 60, 128)
+    assert out["mu"].shape == out["log_var"].shape == (1, 60, 128)
     assert out["reconstruction"].shape == (1, 240, 66)
 
 
@@ -105,7 +105,7 @@ def test_loss_is_equation_5_per_frame():
     torch.manual_seed(5)                                 # the same posterior sample
     out = model(x)
     nll = -torch.distributions.Normal(out["reconstruction"], 0.7).log_prob(x).sum((1, 2)) / 18
-    kl = kl_divergence(out["mu"], out["logvar"]).sum((1, 2)) / 18
+    kl = kl_divergence(out["mu"], out["log_var"]).sum((1, 2)) / 18
     assert torch.allclose(terms["nll"], nll.mean(), rtol=1e-5)
     assert torch.allclose(terms["kl"], kl.mean(), rtol=1e-5)
     assert torch.allclose(terms["loss"], (nll + kl).mean(), rtol=1e-5)

@@ -161,16 +161,16 @@ def mlp(sizes: list[int]) -> nn.Sequential:
 
 
 class GaussianHead(nn.Module):
-    """An MLP that outputs a diagonal Gaussian: ``(..., in) -> mu, logvar`` each ``(..., out)``."""
+    """An MLP that outputs a diagonal Gaussian: ``(..., in) -> mu, log_var`` each ``(..., out)``."""
 
     def __init__(self, sizes: list[int]):
         super().__init__()
         self.net = mlp(sizes[:-1] + [2 * sizes[-1]])
 
     def forward(self, *inputs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        mu, logvar = self.net(torch.cat(inputs, dim=-1)).chunk(2, dim=-1)
+        mu, log_var = self.net(torch.cat(inputs, dim=-1)).chunk(2, dim=-1)
         # Choice: log sigma^2 within [-8, 4] so exp() can neither vanish nor blow up.
-        return mu, logvar.clamp(-8.0, 4.0)
+        return mu, log_var.clamp(-8.0, 4.0)
 
 
 # ----------------------------------------------------------------------------------------
@@ -441,8 +441,8 @@ class DFN(GenerativeModel, nn.Module):
         steps = s.shape[1]
         x = codes[:, :steps]
         state = d.initial_state(batch.shape[0], c.past, batch.device)
-        names = ("h", "qf_mu", "qf_logvar", "pf_mu", "pf_logvar", "f", "s_hat",
-                 "qz_mu", "qz_logvar", "pz_mu", "pz_logvar", "z", "x_hat")
+        names = ("h", "qf_mu", "qf_log_var", "pf_mu", "pf_log_var", "f", "s_hat",
+                 "qz_mu", "qz_log_var", "pz_mu", "pz_log_var", "z", "x_hat")
         out: dict[str, list[torch.Tensor]] = {k: [] for k in names}
         for t in range(steps):
             h = state[-1]
@@ -481,10 +481,10 @@ class DFN(GenerativeModel, nn.Module):
         z2 = out["z"][:, skip:]
         h1, h2 = out["h"][:, :-skip], out["h"][:, skip:]
         dt = torch.full_like(z2[..., :1], skip / self.config.td_max_skip)
-        mu, logvar = d.td_posterior(z2, h1, h2, dt)                              # eq. 13
-        kl = gaussian.kl_divergence(mu, logvar, out["qz_mu"][:, :-skip], out["qz_logvar"][:, :-skip]).sum(-1)
-        prediction = d.skip(torch.cat([gaussian.sample(mu, logvar, generator=generator), dt], -1))   # eq. 14
-        return {"td_mu": mu, "td_logvar": logvar, "td_kl": kl,
+        mu, log_var = d.td_posterior(z2, h1, h2, dt)                              # eq. 13
+        kl = gaussian.kl_divergence(mu, log_var, out["qz_mu"][:, :-skip], out["qz_log_var"][:, :-skip]).sum(-1)
+        prediction = d.skip(torch.cat([gaussian.sample(mu, log_var, generator=generator), dt], -1))   # eq. 14
+        return {"td_mu": mu, "td_log_var": log_var, "td_kl": kl,
                 "td_nll": gaussian.negative_log_likelihood(z2, prediction, std=1.0).sum(-1)}
 
     def dynamics_loss(self, batch: torch.Tensor) -> dict[str, torch.Tensor]:
@@ -502,8 +502,8 @@ class DFN(GenerativeModel, nn.Module):
         std = self.config.observation_std
         x_nll = gaussian.negative_log_likelihood(out["x"], out["x_hat"], std=std).sum(-1).mean()
         s_nll = gaussian.negative_log_likelihood(out["s"], out["s_hat"], std=std).sum(-1).mean()
-        kl_z = gaussian.kl_divergence(out["qz_mu"], out["qz_logvar"], out["pz_mu"], out["pz_logvar"]).sum(-1).mean()
-        kl_f = gaussian.kl_divergence(out["qf_mu"], out["qf_logvar"], out["pf_mu"], out["pf_logvar"]).sum(-1).mean()
+        kl_z = gaussian.kl_divergence(out["qz_mu"], out["qz_log_var"], out["pz_mu"], out["pz_log_var"]).sum(-1).mean()
+        kl_f = gaussian.kl_divergence(out["qf_mu"], out["qf_log_var"], out["pf_mu"], out["pf_log_var"]).sum(-1).mean()
         total = x_nll + s_nll + kl_z + kl_f
         terms = {"x_nll": x_nll.detach(), "s_nll": s_nll.detach(), "kl_z": kl_z.detach(),
                  "kl_f": kl_f.detach(), "x_mse": F.mse_loss(out["x_hat"], out["x"]).detach()}

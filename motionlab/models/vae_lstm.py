@@ -303,9 +303,9 @@ class VAELSTM(GenerativeModel, nn.Module):
     def posterior(self, pose: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """Inference network (eq. 6): pose ``(batch, frames, n_pose)`` with frames a multiple
         of 4 -> ``mu`` and ``log sigma^2`` of ``q(z_s | X)``, each ``(batch, frames // 4, units)``."""
-        mu, logvar = self.inference(pose).chunk(2, dim=-1)
+        mu, log_var = self.inference(pose).chunk(2, dim=-1)
         # Choice: log sigma^2 is kept within [-10, 5] so exp() can neither vanish nor overflow.
-        return mu, logvar.clamp(-10.0, 5.0)
+        return mu, log_var.clamp(-10.0, 5.0)
 
     def canvas(self, control_code: torch.Tensor, latents: torch.Tensor) -> torch.Tensor:
         """Run the cell over ``steps`` canvas steps -> the motion canvas ``(batch, steps, units)``.
@@ -337,7 +337,7 @@ class VAELSTM(GenerativeModel, nn.Module):
     def forward(self, x: torch.Tensor, sample: bool = True) -> dict[str, torch.Tensor]:
         """The training pass on windows ``x`` ``(batch, frames, n_features)``.
 
-        Returns ``reconstruction`` ``(batch, frames, n_features)``, ``mu``, ``logvar``,
+        Returns ``reconstruction`` ``(batch, frames, n_features)``, ``mu``, ``log_var``,
         ``z`` and ``canvas`` ``(batch, ceil(frames / 4), units)``. ``sample=False`` uses
         the posterior means instead of samples (a deterministic reconstruction).
         """
@@ -348,10 +348,10 @@ class VAELSTM(GenerativeModel, nn.Module):
             padded = self.corrupt(padded)
         pose, control = padded[..., :self.config.n_pose], padded[..., self.config.n_pose:]
         code = self.encode_control(control)
-        mu, logvar = self.posterior(pose)
-        z = gaussian.sample(mu, logvar) if sample else mu                           # eq. 3
+        mu, log_var = self.posterior(pose)
+        z = gaussian.sample(mu, log_var) if sample else mu                           # eq. 3
         canvas = self.canvas(code, z)
-        return {"reconstruction": self.decode(canvas)[:, :frames], "mu": mu, "logvar": logvar,
+        return {"reconstruction": self.decode(canvas)[:, :frames], "mu": mu, "log_var": log_var,
                 "z": z, "canvas": canvas, "control_code": code}
 
     def _neg_log_likelihood(self, prediction: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
@@ -376,7 +376,7 @@ class VAELSTM(GenerativeModel, nn.Module):
         out = self(batch)
         frames = batch.shape[1]
         nll = self._neg_log_likelihood(out["reconstruction"], batch).sum(1) / frames     # L_x
-        kl = gaussian.kl_divergence(out["mu"], out["logvar"]).sum(-1).sum(1) / frames    # L_z, eq. 4
+        kl = gaussian.kl_divergence(out["mu"], out["log_var"]).sum(-1).sum(1) / frames    # L_z, eq. 4
         total = (nll + kl).mean() + self.config.l1 * self.l1_penalty()
         terms = {"nll": nll.mean(), "kl": kl.mean(),
                  "mse": F.mse_loss(out["reconstruction"], batch).detach()}
@@ -414,14 +414,14 @@ class VAELSTM(GenerativeModel, nn.Module):
             code = self.encode_control(pad_to_canvas(control))
             if prefix is None:
                 mu = torch.zeros(batch, 1, self.config.units, device=control.device)
-                logvar = torch.zeros_like(mu)
+                log_var = torch.zeros_like(mu)
             else:
                 self._check(prefix, "prefix", (self.config.n_pose, self.config.n_features), min_frames=POOLING)
                 if prefix.shape[0] != batch:
                     raise ValueError(f"prefix: expected {batch} sequences like control, got {prefix.shape[0]}")
-                mu, logvar = self.posterior(pad_to_canvas(prefix[..., :self.config.n_pose]))
-                mu, logvar = mu[:, :1], logvar[:, :1]
-            z1 = gaussian.sample(mu, logvar, temperature, generator)
+                mu, log_var = self.posterior(pad_to_canvas(prefix[..., :self.config.n_pose]))
+                mu, log_var = mu[:, :1], log_var[:, :1]
+            z1 = gaussian.sample(mu, log_var, temperature, generator)
             motion = self.decode(self.canvas(code, z1))[:, :frames]
         return torch.cat([motion[..., :self.config.n_pose], control], dim=-1)
 
