@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import metrics, synthetic
+from .representation import POSE, to_features
 
 
 def control_following(model, start, temperature: float = 0.3, seconds: float = 4.0, seed: int = 0,
@@ -48,3 +49,85 @@ def long_sample_spread(model, start, control, temperature: float = 0.3, seed: in
                             seed=seed).features
     return {"first": float(metrics.pose_spread(motion[:, :frames]).mean()),
             "last": float(metrics.pose_spread(motion[:, -frames:]).mean())}
+
+
+# ----------------------------------------------------------------------------------------
+# Held-out data, trivial baselines and steering: what benchmarks/quality.py and the
+# notebooks measure every model against
+# ----------------------------------------------------------------------------------------
+
+HELD_OUT_SEED = 10_000
+"""Seed of the built-in clips no shipped model is trained on: every checkpoint trains on
+clips seeded 0, 1, 2, ... (``data.load("synthetic", n_clips=N)``, N < 10,000)."""
+
+
+def held_out_windows(window_frames: int, fps: float = 20.0, n_clips: int = 12, seed: int = HELD_OUT_SEED):
+    """Windows of built-in clips that no shipped model saw: features ``(windows,
+    window_frames, 66)`` in the data's units, cut every half window from ``n_clips`` clips
+    of 12 s."""
+    from . import data
+    clips = data.load("synthetic", fps=fps, n_clips=n_clips, seed=seed)
+    half = max(1, window_frames // 2)
+    return np.concatenate([data.cut_windows(c.features(), window_frames, half) for c in clips])
+
+
+def trivial_reconstructions(windows: np.ndarray, mean_features: np.ndarray) -> dict[str, np.ndarray]:
+    """What an autoencoder must beat, for windows ``(n, frames, 66)`` in data units:
+
+    * ``"mean pose"``: the training data's mean features (``mean_features``, ``(66,)``)
+      in every frame: the average pose, moving at the average speed;
+    * ``"window average"``: each window's own average frame, held for the whole window;
+    * ``"constant velocity"``: each window's first frame, moved on with its first frame's
+      velocity (features extrapolated linearly from frames 0 and 1).
+    """
+    windows = np.asarray(windows, dtype=np.float64)
+    frames = windows.shape[-2]
+    step = windows[..., 1:2, :] - windows[..., :1, :]
+    return {"mean pose": np.broadcast_to(mean_features, windows.shape).copy(),
+            "window average": np.repeat(windows.mean(axis=-2, keepdims=True), frames, axis=-2),
+            "constant velocity": windows[..., :1, :] + np.arange(frames)[:, None] * step}
+
+
+def mean_pose_on_path(windows: np.ndarray, mean_features: np.ndarray) -> np.ndarray:
+    """The trivial model that knows the control: the data's mean pose (``mean_features[:63]``)
+    in every frame, moved along each window's true path (its own control kept)."""
+    out = np.array(windows, dtype=np.float64)
+    out[..., POSE] = np.asarray(mean_features)[POSE]
+    return out
+
+
+def constant_pose(windows: np.ndarray) -> np.ndarray:
+    """The trivial model that stands: each window's first pose in every frame, not moving."""
+    out = np.repeat(np.array(windows, dtype=np.float64)[..., :1, :], np.shape(windows)[-2], axis=-2)
+    out[..., POSE.stop:] = 0.0
+    return out
+
+
+RAMP_S = 1.0
+"""Steering paths start from standing and reach their speed over this many seconds, for
+the data and for the models alike (:func:`motionlab.synthetic.preset_control`)."""
+
+
+def _preset(name: str, seconds: float, fps: float) -> np.ndarray:
+    # one frame more than the seconds, so the last second has all its frame-to-frame steps
+    return synthetic.preset_control(name, seconds + 1.0 / fps, fps, ramp_s=RAMP_S)
+
+
+def walked_preset(name: str, seconds: float, fps: float) -> np.ndarray:
+    """The control ``(seconds * fps + 1, 3)`` of a drawn preset path
+    (:data:`motionlab.synthetic.PRESETS`, from standing, reached over :data:`RAMP_S`) as the synthetic walker follows
+    it: what the course steers models with."""
+    return synthetic.walked_control(_preset(name, seconds, fps), fps)
+
+
+def data_stepping(name: str, seconds: float, fps: float, n: int = 4) -> tuple[np.ndarray, float]:
+    """The data on the preset path ``name``: ``n`` built-in bodies (held-out seeds) follow it
+    for ``seconds``. Returns their stepping speed second by second (m/s, ``(seconds,)``,
+    :func:`motionlab.metrics.stepping_by_second` averaged over the bodies) and their leg
+    swing (m, :func:`motionlab.metrics.leg_swing`)."""
+    rng = np.random.default_rng(HELD_OUT_SEED)
+    control = _preset(name, seconds, fps)
+    walks = np.stack([to_features(synthetic.generate(control, fps, synthetic.Body.random(rng),
+                                                     synthetic.Style.random(rng)).positions, fps)
+                      for _ in range(n)])
+    return metrics.stepping_by_second(walks, fps).mean(0), metrics.leg_swing(walks)

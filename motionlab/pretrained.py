@@ -37,10 +37,18 @@ MOGLOW_VARIANTS = {"dropout": {}, "no_dropout": {"dropout": 0.0}, "markov": {"re
 is the Markov model widened to as many weights as the laptop LSTM model (803 k), for a
 fair comparison of the two at the laptop size."""
 
-NAMES = {"moglow": "moglow_dropout.pt", "moglow_no_dropout": "moglow_no_dropout.pt",
+NAMES = {"conv_ae": "conv_ae.pt", "vae": "vae.pt", "vae_lstm": "vae_lstm.pt",
+         "vae_lstm_paper_objective": "vae_lstm_paper_objective.pt",
+         "lstm_no_control": "lstm_no_control.pt", "lstm_control": "lstm_control.pt",
+         "moglow": "moglow_dropout.pt", "moglow_no_dropout": "moglow_no_dropout.pt",
          "moglow_markov": "moglow_markov.pt", "moglow_markov_matched": "moglow_markov_matched.pt"}
-"""Model name -> file in :data:`CHECKPOINTS`. ``"moglow"`` is MoGlow as the paper trains
-it (with history dropout, §5.3); the others are the variants of notebook 06."""
+"""Model name -> file in :data:`CHECKPOINTS`. ``"conv_ae"`` is Motegi's temporal conv
+autoencoder and ``"vae"`` his VAE on its features (loaded as one
+:class:`~motionlab.models.vae.MotionVAE`); ``"vae_lstm"`` is Habibie's model (with our free-running term),
+``"vae_lstm_paper_objective"`` the same trained with eq. 5 alone, and ``"lstm_no_control"``
+/ ``"lstm_control"`` the LSTM-3LR baselines of notebook 04, all with one budget. ``"moglow"``
+is MoGlow as the paper trains it (with history dropout, §5.3); the others are the
+variants of notebook 06."""
 
 
 def available() -> list[str]:
@@ -61,10 +69,26 @@ def load(name: str, device: str = "cpu") -> torch.nn.Module:
     file = path(name)
     if not file.is_file():
         raise ValueError(f"name: the checkpoint of {name!r} is missing ({file}); run `make checkpoints`")
+    if name == "vae":
+        model = load_motion_vae(file)
+        model.vae.to(device), model.conv_ae.to(device)
+        return model
     checkpoint = training.load_checkpoint(file, device=device)
     checkpoint.model.history = checkpoint.history
     checkpoint.model.description = checkpoint.description
     return checkpoint.model
+
+
+def shipped_or_train(name: str, model: torch.nn.Module, prepared, config: training.TrainConfig,
+                     retrain: bool = False) -> tuple[torch.nn.Module, "training.History"]:
+    """The shipped model ``name`` when its checkpoint holds ``model``'s class and config
+    trained on data made like ``prepared``; otherwise ``model`` trained now with ``config``
+    (and cached in ``data/cache/<name>.pt``, so a second run loads it). ``retrain=True``
+    always trains. Returns the model in eval mode, with ``model.normalizer``, and its
+    history (the shipped one: how long the checkpoint took, its loss curves)."""
+    path(name)                                                    # a known name, or ValueError
+    return training.train_or_load(CACHE / NAMES[name], model, prepared, config, retrain=retrain,
+                                  pretrained=path(name))
 
 
 def train_or_load(prepared, variant: str = "dropout", config: MoGlowConfig = MoGlowConfig(), epochs: int = 40,
@@ -102,4 +126,6 @@ def load_motion_vae(path: str | Path):
         conv_ae_path = Path(path).parent / conv_ae_path.name
     conv_ae = training.load_checkpoint(conv_ae_path)
     motion_normalizer = Normalizer.from_state_dict(vae.description["motion_normalizer"])
-    return MotionVAE(vae.model, conv_ae.model, vae.normalizer, motion_normalizer)
+    model = MotionVAE(vae.model, conv_ae.model, vae.normalizer, motion_normalizer)
+    model.history, model.description = vae.history, vae.description
+    return model

@@ -29,14 +29,52 @@ def test_foot_skating_is_zero_for_planted_feet_and_grows_with_sliding():
     sliding[:, [3, 4, 7, 8], 2] = np.arange(40)[:, None] * 0.05  # 1 m/s along z, on the floor
     assert metrics.foot_skating(sliding, fps) == pytest.approx(1.0)
     lifted = sliding.copy()
-    lifted[:, [3, 4, 7, 8], 1] = 0.2                            # above every contact height
-    assert metrics.foot_skating(lifted, fps) == 0.0
+    lifted[:, [3, 4, 7, 8], 1] = 0.2                            # 20 cm above the data's floor
+    assert metrics.foot_skating(lifted, fps, rest_height_m=0.0) == 0.0
     half = sliding.copy()
-    half[:, [4, 8], 1] = 0.025                                  # toes at H/2: weight 2 - sqrt(2)
-    half[:, [3, 7], 1] = 0.05                                   # ankles at H/2
-    assert metrics.foot_skating(half, fps) == pytest.approx(2 - np.sqrt(2))
+    half[:, [3, 4, 7, 8], 1] = 0.0125                           # H/2 above the floor: weight 2 - sqrt(2)
+    assert metrics.foot_skating(half, fps, rest_height_m=0.0) == pytest.approx(2 - np.sqrt(2))
     with pytest.raises(ValueError, match="frames >= 2"):
         metrics.foot_skating(planted[:1], fps)
+
+
+def test_a_planted_joint_counts_fully_at_its_own_height():
+    """Ankle centres sit ~8 cm and toes ~3.5 cm above the floor when planted: measured
+    against their planted height they count fully (the old measure gave them 0.25 and 0.42)."""
+    fps = 20.0
+    sliding = np.zeros((40, 21, 3))
+    sliding[..., 1] = 1.0
+    sliding[:, [3, 7], 1], sliding[:, [4, 8], 1] = 0.08, 0.035
+    sliding[:, [3, 4, 7, 8], 2] = np.arange(40)[:, None] * 0.05  # 1 m/s, planted
+    rest = metrics.foot_rest_heights(sliding)
+    assert rest == pytest.approx([0.08, 0.035, 0.08, 0.035])
+    assert metrics.foot_skating(sliding, fps) == pytest.approx(1.0)
+    assert metrics.foot_skating(sliding, fps, rest_height_m=rest) == pytest.approx(1.0)
+    # hovering 5 cm above the data's planted height: not in contact, so it cannot skate ...
+    hovering = sliding.copy()
+    hovering[:, [3, 4, 7, 8], 1] += 0.05
+    assert metrics.foot_skating(hovering, fps, rest_height_m=rest) == 0.0
+    # ... which is why the report puts the ankles' height beside it
+    walk = walker()
+    rest = metrics.foot_rest_heights(walk)
+    floating = to_features(walk + np.array([0.0, 0.05, 0.0]), fps)       # the whole body 5 cm up
+    report = metrics.locomotion_report(floating, fps, rest_height_m=rest)
+    grounded = metrics.locomotion_report(to_features(walk, fps), fps, rest_height_m=rest)
+    assert report["ankle height (m)"] == pytest.approx(grounded["ankle height (m)"] + 0.05, abs=1e-6)
+    assert report["foot skating (m/s)"] < grounded["foot skating (m/s)"]
+
+
+def test_stepping_by_second_shows_fading_steps():
+    fps = 20.0
+    t = np.arange(200) / fps
+    pose = np.zeros((200, 21, 3))
+    pose[:, 3, 2] = 0.3 * np.sin(2 * np.pi * t) * np.linspace(1, 0, 200)   # a left ankle swinging less and less
+    features = np.concatenate([pose.reshape(200, 63), np.zeros((200, 3))], axis=1)
+    by_second = metrics.stepping_by_second(features, fps)
+    assert by_second.shape == (9,)
+    assert (np.diff(by_second) < 0).all()
+    with pytest.raises(ValueError, match="one second"):
+        metrics.stepping_by_second(features[:10], fps)
 
 
 def test_bone_length_drift():

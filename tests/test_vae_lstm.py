@@ -16,6 +16,8 @@ SMALL = VAELSTMConfig(window=16, width=5, control_filters=4, control_code=6, inf
 def test_paper_config_gives_the_sizes_of_section_4_2():
     paper = VAELSTMConfig.paper()
     assert (paper.window, paper.fps, paper.width, paper.units) == (240, 60.0, 25, 128)
+    assert paper.free_running == 0.0                        # eq. 5 alone: the paper's objective
+    assert VAELSTMConfig.paper(free_running=1.0).free_running == 1.0
     model = VAELSTM(paper).eval()
     assert model.control_encoder.conv0.weight.shape == (64, 3, 25)          # (3, 25) * 64
     assert model.control_encoder.conv1.weight.shape == (128, 64, 25)        # (64, 25) * 128

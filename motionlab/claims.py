@@ -1,0 +1,231 @@
+"""The papers' claims as checks on measured motion: each returns a :class:`Verdict`.
+
+A notebook asserts a claim with ``assert verdict, verdict`` (the verdict prints its
+figures and, when it fails, why). Each check is written so that only a good model passes
+it: ``tests/test_claims.py`` runs every one on trivial baselines (the data's mean pose
+moved along the true path, a constant pose, a time-shuffled clip, steps that fade, a
+decoder that ignores its latent) and asserts that each of them **fails**.
+
+The bounds are the course's targets, fixed here once; they are never loosened to let a
+model through. Where a model misses one, the notebook says so with the numbers.
+
+Units: features ``(..., frames, 66)`` in the data's units (m, m/s, rad/s); errors in
+metres; the figures a verdict reports are in the units their names say.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from . import checks, metrics
+from .representation import N_FEATURES, to_positions
+
+MOVES_LIKE_DATA = {"stepping": 0.8, "leg swing": 0.8, "skating": 2.0, "bone drift": 0.02}
+"""Generated motion against the data (Motegi §V made measurable): stepping speed and leg
+swing at least 80 % of the data's, foot skating at most 2x the data's, bones stretching
+at most 2 %."""
+
+STEADY_STEPPING = 0.25
+"""Steered motion steps within ±25 % of the data's stepping speed in every second."""
+
+TRAVERSAL_EFFECT = 0.5
+"""A latent axis "controls" a body part when its sweep moves it by half the data's
+standard deviation or more (Motegi Figs. 7-9)."""
+
+BEATS_TRIVIAL = 0.8
+"""A model that claims to use the control must beat the trivial model that uses it too
+(the mean pose moved along the true path) by 20 % or more."""
+
+
+@dataclass
+class Verdict:
+    """Whether a claim holds, with the measured figures and the reasons it fails.
+
+    ``bool(verdict)`` is whether it holds; ``str(verdict)`` is a short report, one line per
+    figure, then the failures."""
+
+    claim: str
+    figures: dict[str, float] = field(default_factory=dict)
+    failures: list[str] = field(default_factory=list)
+
+    @property
+    def holds(self) -> bool:
+        return not self.failures
+
+    def __bool__(self) -> bool:
+        return self.holds
+
+    def require(self, ok: bool, failure: str) -> None:
+        """Record ``failure`` unless ``ok``."""
+        if not ok:
+            self.failures.append(failure)
+
+    def __str__(self) -> str:
+        lines = [f"{self.claim}: {'holds' if self.holds else 'does NOT hold'}"]
+        lines += [f"  {name}: {value:.4g}" for name, value in self.figures.items()]
+        lines += [f"  fails: {why}" for why in self.failures]
+        return "\n".join(lines)
+
+
+def _features(value, name: str) -> np.ndarray:
+    return checks.array(value, name, (..., "frames", N_FEATURES))
+
+
+# ----------------------------------------------------------------------------------------
+# Motegi 2018: an autoencoder that beats trivial reconstructions; samples that move
+# ----------------------------------------------------------------------------------------
+
+def beats_trivial_reconstructions(errors: dict[str, tuple[float, float]], model: str) -> Verdict:
+    """The autoencoder reconstructs motion better than any trivial reconstruction (Motegi
+    §III): ``errors`` maps a name to ``(pose error, motion error)`` in metres, for
+    ``model`` and for each trivial baseline (mean pose, window average, constant velocity,
+    ...); the model's pose *and* motion error must be below the best baseline's."""
+    if model not in errors or len(errors) < 2:
+        raise ValueError(f"errors: expected {model!r} and at least one baseline, got {sorted(errors)}")
+    verdict = Verdict(f"{model} beats every trivial reconstruction")
+    baselines = {name: e for name, e in errors.items() if name != model}
+    for k, kind in enumerate(("pose", "motion")):
+        best_name = min(baselines, key=lambda name: baselines[name][k])
+        ours, best = errors[model][k], baselines[best_name][k]
+        verdict.figures[f"{kind} error, {model} (cm)"] = 100 * ours
+        verdict.figures[f"{kind} error, best baseline: {best_name} (cm)"] = 100 * best
+        verdict.require(ours < best, f"{kind} error {100 * ours:.2f} cm is not below {best_name}'s {100 * best:.2f} cm")
+    return verdict
+
+
+def moves_like_data(samples: np.ndarray, data: np.ndarray, fps: float, name: str = "samples") -> Verdict:
+    """Generated windows move like the data (Motegi §V, made measurable): their stepping
+    speed and leg swing are at least 80 % of the data's, their feet skate at most 2x the
+    data's (measured against the data's planted foot heights) and their bones stretch at
+    most 2 % (:data:`MOVES_LIKE_DATA`). ``samples`` and ``data``: features ``(..., frames,
+    66)``; each window is integrated from its own start."""
+    fps = checks.rate(fps, "fps")
+    data = _features(data, "data")
+    samples = _features(samples, "samples")
+    rest = metrics.foot_rest_heights(to_positions(data, fps))
+    ours, theirs = metrics.locomotion_report(samples, fps, rest), metrics.locomotion_report(data, fps, rest)
+    verdict = Verdict(f"{name} move like the data")
+    for key in ours:
+        verdict.figures[f"{key}, {name}"] = ours[key]
+        verdict.figures[f"{key}, data"] = theirs[key]
+    bound = MOVES_LIKE_DATA
+    for key, label in (("stepping (m/s)", "stepping"), ("leg swing (m)", "leg swing")):
+        ratio = ours[key] / max(theirs[key], 1e-9)
+        verdict.require(ratio >= bound[label], f"{label} is {100 * ratio:.0f} % of the data's (need >= "
+                                               f"{100 * bound[label]:.0f} %)")
+    skating = ours["foot skating (m/s)"] / max(theirs["foot skating (m/s)"], 1e-9)
+    verdict.require(skating <= bound["skating"], f"feet skate {skating:.1f}x the data's (need <= {bound['skating']:g}x)")
+    verdict.require(ours["bone drift"] <= bound["bone drift"],
+                    f"bones stretch {100 * ours['bone drift']:.1f} % (need <= {100 * bound['bone drift']:g} %)")
+    return verdict
+
+
+def axes_control_parts(effects: dict[str, np.ndarray], spread: dict[str, float],
+                       parts: tuple[str, ...] = ("hand height (m)", "knee bend (deg)")) -> Verdict:
+    """Distinct latent axes control distinct body parts (Motegi §V, Figs. 7-9).
+
+    ``effects[part]``: ``(latent,)`` how much sweeping each axis (5th to 95th percentile of
+    the prior, :func:`motionlab.models.vae.axis_effects`) changes ``part``; ``spread[part]``
+    the data's standard deviation of it. Holds when each part has its own axis (no axis
+    counted twice) whose sweep moves it by at least :data:`TRAVERSAL_EFFECT` of the data's
+    spread. The verdict's figures name the axes chosen (the assignment that maximises the
+    weakest part's effect)."""
+    if len(parts) < 2:
+        raise ValueError(f"parts: expected two or more body-part measures, got {parts!r}")
+    missing = [p for p in parts if p not in effects or p not in spread]
+    if missing:
+        raise ValueError(f"effects, spread: missing {missing}")
+    standardised = np.stack([np.abs(np.asarray(effects[p], dtype=float)) / max(float(spread[p]), 1e-12)
+                             for p in parts])                         # (parts, latent)
+    if standardised.shape[1] < len(parts):
+        raise ValueError(f"effects: need at least {len(parts)} latent axes, got {standardised.shape[1]}")
+    # Best distinct assignment of axes to parts (parts are few: try each part's top axes).
+    top = [list(np.argsort(row)[::-1][:len(parts) + 2]) for row in standardised]
+    best, best_axes = -1.0, None
+    for axes in np.array(np.meshgrid(*top)).reshape(len(parts), -1).T:
+        if len(set(axes)) == len(parts):
+            weakest = min(standardised[k, a] for k, a in enumerate(axes))
+            if weakest > best:
+                best, best_axes = weakest, axes
+    verdict = Verdict("distinct latent axes move distinct body parts")
+    for k, part in enumerate(parts):
+        strongest = int(np.argmax(standardised[k]))
+        verdict.figures[f"{part}: strongest axis"] = strongest
+        verdict.figures[f"{part}: its effect (data std)"] = float(standardised[k, strongest])
+        verdict.figures[f"{part}: axis given"] = int(best_axes[k])
+        verdict.figures[f"{part}: effect of the axis given (data std)"] = float(standardised[k, best_axes[k]])
+        verdict.require(standardised[k, best_axes[k]] >= TRAVERSAL_EFFECT,
+                        f"{part}: its own axis {int(best_axes[k])} moves it by {standardised[k, best_axes[k]]:.2f} "
+                        f"of the data's std (need >= {TRAVERSAL_EFFECT})")
+    return verdict
+
+
+# ----------------------------------------------------------------------------------------
+# Habibie 2017: control beats no control; the steered character keeps stepping
+# ----------------------------------------------------------------------------------------
+
+def control_beats_no_control(errors: dict[str, np.ndarray], model: str, no_control: str,
+                             trivial: str, horizons: slice = slice(-3, None)) -> Verdict:
+    """Habibie Tables 1-2: at the long horizons, the control-conditioned ``model`` predicts
+    motion better than the model without control *and* better than the trivial model that
+    has the control too (the data's mean pose moved along the true path).
+
+    ``errors[name]``: errors at the horizons, ``(horizons,)`` metres (the motion error of
+    Table 1, or the pose error of Table 2). Holds when at every horizon of ``horizons``
+    (default: the last three) the model's error is below ``no_control``'s and at most
+    :data:`BEATS_TRIVIAL` times ``trivial``'s."""
+    for name in (model, no_control, trivial):
+        if name not in errors:
+            raise ValueError(f"errors: no row {name!r} (rows: {sorted(errors)})")
+    ours, theirs, base = (np.asarray(errors[n], dtype=float)[horizons] for n in (model, no_control, trivial))
+    verdict = Verdict(f"{model} beats no control and the mean pose on the true path at long horizons")
+    for k in range(len(ours)):
+        verdict.figures[f"horizon {k + 1}: {model} (cm)"] = 100 * ours[k]
+        verdict.figures[f"horizon {k + 1}: {no_control} (cm)"] = 100 * theirs[k]
+        verdict.figures[f"horizon {k + 1}: {trivial} (cm)"] = 100 * base[k]
+    verdict.require(bool((ours < theirs).all()), f"not below {no_control} at every long horizon")
+    verdict.require(bool((ours <= BEATS_TRIVIAL * base).all()),
+                    f"not <= {BEATS_TRIVIAL:g}x {trivial} at every long horizon "
+                    f"(ratios {np.round(ours / base, 2).tolist()})")
+    return verdict
+
+
+def steps_steadily(samples: np.ndarray, reference_stepping, reference_leg_swing: float,
+                   fps: float, name: str = "steered motion") -> Verdict:
+    """A character steered along a path keeps stepping like the data on that path: in every
+    second its stepping speed (:func:`motionlab.metrics.stepping_by_second`, averaged over
+    the samples) is within ±25 % (:data:`STEADY_STEPPING`) of the data's in the same second,
+    and its leg swing is at least 80 % of the data's.
+
+    Args:
+        samples: features ``(n, frames, 66)`` generated for one path, data units.
+        reference_stepping: the data's stepping on that path, m/s: ``(seconds,)`` second by
+            second (:func:`motionlab.experiments.data_stepping`), or one number for all.
+        reference_leg_swing: the data's :func:`motionlab.metrics.leg_swing` on it, m.
+        fps: frames per second.
+    """
+    samples = _features(samples, "samples")
+    fps = checks.rate(fps, "fps")
+    by_second = metrics.stepping_by_second(samples, fps)
+    per_second = by_second.reshape(-1, by_second.shape[-1]).mean(0)            # (seconds,)
+    reference = np.broadcast_to(np.asarray(reference_stepping, dtype=float), per_second.shape) \
+        if np.ndim(reference_stepping) == 0 or np.size(reference_stepping) == len(per_second) else None
+    if reference is None:
+        raise ValueError(f"reference_stepping: expected one number or {len(per_second)} (one per second), "
+                         f"got {np.shape(reference_stepping)}")
+    if not ((reference > 0).all() and reference_leg_swing > 0):
+        raise ValueError(f"reference_stepping, reference_leg_swing: expected > 0, got "
+                         f"{reference_stepping!r}, {reference_leg_swing!r}")
+    swing = metrics.leg_swing(samples.reshape((-1,) + samples.shape[-2:]))
+    verdict = Verdict(f"{name} keeps stepping")
+    for k, (value, data_value) in enumerate(zip(per_second, reference)):
+        verdict.figures[f"second {k + 1}: stepping / the data's"] = float(value / data_value)
+    verdict.figures["leg swing / the data's"] = swing / reference_leg_swing
+    off = np.abs(per_second / reference - 1) > STEADY_STEPPING
+    verdict.require(not off.any(), f"stepping off the data's by more than {100 * STEADY_STEPPING:.0f} % in seconds "
+                                   f"{(np.flatnonzero(off) + 1).tolist()} (ratios "
+                                   f"{np.round(per_second / reference, 2).tolist()})")
+    verdict.require(swing >= MOVES_LIKE_DATA["leg swing"] * reference_leg_swing,
+                    f"leg swing {100 * swing / reference_leg_swing:.0f} % of the data's (need >= 80 %)")
+    return verdict

@@ -1,0 +1,187 @@
+"""Every claim check in motionlab.claims fails on trivial baselines, and passes real motion.
+
+The baselines are the ways a model can look good without being good: the data's mean pose
+moved along the true path (glides), a constant pose (stands), the data's frames shuffled in
+time (jitters), steps that fade, a decoder that ignores its latent, one latent axis that
+moves everything.
+"""
+import numpy as np
+import pytest
+
+from motionlab import claims, metrics, synthetic
+from motionlab.representation import CONTROL, POSE, to_features
+
+FPS = 20.0
+
+
+def walk(seconds=10.0, preset="walk", seed=0):
+    """Synthetic features of a character following a preset control path, (frames, 66)."""
+    rng = np.random.default_rng(seed)
+    body, style = synthetic.Body.random(rng), synthetic.Style.random(rng)
+    control = synthetic.preset_control(preset, seconds, FPS, ramp_s=0.0)
+    return to_features(synthetic.generate(control, FPS, body, style).positions, FPS)
+
+
+def test_one_reference_for_every_second_or_one_per_second(walks):
+    assert claims.steps_steadily(walks[:2], 1.24, 0.55, FPS)
+    with pytest.raises(ValueError, match="one per second"):
+        claims.steps_steadily(walks[:2], np.ones(7), 0.55, FPS)
+
+
+@pytest.fixture(scope="module")
+def walks():
+    """Eight 4-s windows of real (synthetic) walking: (8, 80, 66)."""
+    return np.stack([walk(4.0, "walk", seed=s) for s in range(8)])
+
+
+def mean_pose_on_path(features):
+    out = features.copy()
+    out[..., POSE] = features[..., POSE].reshape(-1, 63).mean(0)
+    return out
+
+
+def constant_pose(features):
+    out = features.copy()
+    out[..., POSE] = features[..., :1, POSE]
+    out[..., CONTROL] = 0.0
+    return out
+
+
+def shuffled(features, seed=0):
+    rng = np.random.default_rng(seed)
+    return np.stack([w[rng.permutation(len(w))] for w in features])
+
+
+def fading(features):
+    """Steps that fade: the pose blends from the real one to the mean pose over the window."""
+    mean = features[..., POSE].reshape(-1, 63).mean(0)
+    fade = np.linspace(1.0, 0.0, features.shape[-2])[:, None]
+    out = features.copy()
+    out[..., POSE] = fade * features[..., POSE] + (1 - fade) * mean
+    return out
+
+
+# -- moves_like_data -----------------------------------------------------------------------
+
+def test_real_motion_moves_like_data(walks):
+    verdict = claims.moves_like_data(walks[4:], walks[:4], FPS)
+    assert verdict, verdict
+
+
+@pytest.mark.parametrize("baseline", [mean_pose_on_path, constant_pose, shuffled, fading])
+def test_trivial_samples_do_not_move_like_data(walks, baseline):
+    verdict = claims.moves_like_data(baseline(walks[4:]), walks[:4], FPS)
+    assert not verdict, verdict
+    assert "does NOT hold" in str(verdict)
+
+
+def test_stretched_bones_fail(walks):
+    stretched = walks[4:].copy()
+    noise = np.random.default_rng(0).normal(0, 0.02, stretched[..., POSE].shape)
+    stretched[..., POSE] += noise
+    verdict = claims.moves_like_data(stretched, walks[:4], FPS)
+    assert not verdict
+    assert any("bones" in f for f in verdict.failures)
+
+
+# -- steps_steadily ------------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def long_walks():
+    return np.stack([walk(10.0, "walk", seed=s) for s in range(4)])
+
+
+def reference(features):
+    return metrics.stepping_by_second(features, FPS).mean(0), metrics.leg_swing(features)
+
+
+def test_a_real_long_walk_steps_steadily(long_walks):
+    stepping, swing = reference(long_walks[:2])
+    assert claims.steps_steadily(long_walks[2:], stepping, swing, FPS)
+
+
+@pytest.mark.parametrize("baseline", [mean_pose_on_path, constant_pose, fading])
+def test_gliding_standing_and_fading_do_not_step_steadily(long_walks, baseline):
+    stepping, swing = reference(long_walks[:2])
+    verdict = claims.steps_steadily(baseline(long_walks[2:]), stepping, swing, FPS)
+    assert not verdict, verdict
+
+
+def test_a_model_that_ignores_the_control_fails(long_walks):
+    """Asked to walk, it stands (what a model that ignores the control does half the time)."""
+    stepping, swing = reference(long_walks[:2])
+    standing = np.stack([walk(10.0, "stand still", seed=s) for s in range(2)])
+    assert not claims.steps_steadily(standing, stepping, swing, FPS)
+
+
+def test_running_is_not_walking(long_walks):
+    stepping, swing = reference(long_walks[:2])
+    running = np.stack([walk(10.0, "run", seed=s) for s in range(2)])
+    assert not claims.steps_steadily(running, stepping, swing, FPS)
+
+
+# -- beats_trivial_reconstructions ---------------------------------------------------------
+
+def test_reconstruction_claim_needs_both_errors_below_the_best_baseline():
+    errors = {"mean pose": (0.10, 0.20), "window average": (0.05, 0.08), "model": (0.03, 0.05)}
+    assert claims.beats_trivial_reconstructions(errors, "model")
+    worse_motion = {**errors, "model": (0.03, 0.09)}
+    assert not claims.beats_trivial_reconstructions(worse_motion, "model")
+    # a trivial reconstruction offered as the model ties with itself: fails
+    assert not claims.beats_trivial_reconstructions({**errors, "model": errors["window average"]}, "model")
+
+
+# -- axes_control_parts --------------------------------------------------------------------
+
+SPREAD = {"hand height (m)": 0.02, "knee bend (deg)": 5.0}
+
+
+def test_distinct_strong_axes_hold():
+    effects = {"hand height (m)": np.array([0.0, 0.015, 0.002, 0.0]),
+               "knee bend (deg)": np.array([0.5, 0.0, 0.3, 4.0])}
+    verdict = claims.axes_control_parts(effects, SPREAD)
+    assert verdict, verdict
+    assert verdict.figures["hand height (m): axis given"] == 1
+    assert verdict.figures["knee bend (deg): axis given"] == 3
+
+
+def test_a_decoder_that_ignores_its_latent_fails():
+    effects = {name: np.zeros(8) for name in SPREAD}
+    assert not claims.axes_control_parts(effects, SPREAD)
+
+
+def test_one_axis_that_moves_everything_is_not_two():
+    effects = {"hand height (m)": np.array([0.0, 0.02, 0.001, 0.0]),
+               "knee bend (deg)": np.array([0.1, 5.0, 0.2, 0.3])}
+    verdict = claims.axes_control_parts(effects, SPREAD)
+    assert not verdict
+    given = {verdict.figures[f"{name}: axis given"] for name in SPREAD}
+    assert len(given) == 2                                     # never the same axis twice
+
+
+def test_weak_sweeps_fail():
+    effects = {"hand height (m)": np.array([0.0, 0.008, 0.0]), "knee bend (deg)": np.array([2.0, 0.0, 0.0])}
+    assert not claims.axes_control_parts(effects, SPREAD)      # 0.4 and 0.4 of the data's std
+
+
+# -- control_beats_no_control --------------------------------------------------------------
+
+def test_tables_claim_requires_beating_the_mean_pose_on_the_true_path():
+    rows = {"VAE-LSTM": np.array([0.05, 0.06, 0.07, 0.08, 0.09]),
+            "LSTM, no control": np.array([0.10, 0.20, 0.40, 0.80, 1.60]),
+            "mean pose on the true path": np.array([0.14, 0.14, 0.14, 0.14, 0.14])}
+    assert claims.control_beats_no_control(rows, "VAE-LSTM", "LSTM, no control", "mean pose on the true path")
+    # the mean pose on the true path itself, offered as the model, fails
+    as_model = {**rows, "VAE-LSTM": rows["mean pose on the true path"]}
+    assert not claims.control_beats_no_control(as_model, "VAE-LSTM", "LSTM, no control",
+                                               "mean pose on the true path")
+    # a model a little below the trivial one is not enough
+    barely = {**rows, "VAE-LSTM": 0.95 * rows["mean pose on the true path"]}
+    assert not claims.control_beats_no_control(barely, "VAE-LSTM", "LSTM, no control", "mean pose on the true path")
+
+
+def test_claims_refuse_missing_rows():
+    with pytest.raises(ValueError, match="no row"):
+        claims.control_beats_no_control({"a": np.zeros(3)}, "a", "b", "c")
+    with pytest.raises(ValueError, match="baseline"):
+        claims.beats_trivial_reconstructions({"model": (0.1, 0.1)}, "model")
