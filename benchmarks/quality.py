@@ -1,30 +1,54 @@
-"""Quality of the shipped models, one row per model, the data's own row first.
+"""Quality of Motegi's and Habibie's models, one row per model, the data's own row first.
 
-    python benchmarks/quality.py
+    python benchmarks/quality.py                         # the shipped checkpoints
+    python benchmarks/quality.py --data data/cache/cmu   # real clips (trains first: ~3 min)
 
-Every model is loaded with ``motionlab.pretrained.load`` and measured on built-in clips
-that no shipped model was trained on (``experiments.held_out_windows``, seeds from
-10,000), with the measures of ``motionlab.metrics`` and the claim checks of
-``motionlab.claims`` (targets fixed there). Rows for trivial baselines (the mean pose moved
-along the true path, a constant pose) show what failing looks like. A model whose
-checkpoint is missing is listed as such; ``make checkpoints`` makes them all.
+Built-in data (the default): every model is loaded with ``motionlab.pretrained.load`` and
+measured on built-in clips that no shipped model was trained on
+(``experiments.held_out_windows``, seeds from 10,000). A model whose checkpoint is missing
+is listed as such; ``make checkpoints`` makes them all.
 
-Tables: (1) motion like the data: stepping, leg swing, ankle height, foot skating, bone
-drift; (2) the conv autoencoder against trivial reconstructions; (3) the VAE's latent
-axes; (4) the VAE-LSTM steered for 10 s at walking and running speed, second by second.
+A folder of motion capture (``--data``): the same recipes as ``make checkpoints`` (the
+command line, ``python -m motionlab.train``), each for as many training steps as the
+shipped model took, train each model on the folder's training clips, with 1-s windows as
+the notebooks use for CMU's short trials, cached in
+``data/cache/quality/``; they are measured on the folder's test clips. On real data the
+targets are reported, not required.
+
+Both use the measures of ``motionlab.metrics`` and the claim checks of ``motionlab.claims``
+(targets fixed there). Rows for trivial baselines (the mean pose moved along the true path,
+a constant pose) show what failing looks like. Tables: (1) motion like the data: stepping,
+leg swing, ankle height, foot skating, bone drift; (2) the conv autoencoder against trivial
+reconstructions; (3) the VAE's samples and latent axes; (4) the VAE-LSTM steered, second by
+second (built-in: 10 s along walked paths at walking and running speed; real data: each
+test clip of 3 s or more, by its own control).
 """
 from __future__ import annotations
+
+import argparse
+from pathlib import Path
 
 import numpy as np
 import torch
 
-from motionlab import claims, experiments, metrics, pretrained
+from motionlab import claims, data, experiments, metrics, pretrained, training
+from motionlab import train as cli
 from motionlab.models.vae import axis_effects
 from motionlab.representation import to_positions
 
 FPS = 20.0
-WINDOW = 80                                   # 4-s windows, the notebooks' default
+WINDOW = 80                                   # 4-s windows on built-in data, the notebooks' default
+REAL_WINDOW = 20                              # 1-s windows on real clips (most CMU trials are short)
 STEER_S = 10.0
+REAL_STEER_S = 3.0
+
+# The recipes of `make checkpoints` (Makefile): command-line arguments and epochs. On real
+# clips each --set also gets window=REAL_WINDOW, and the epochs become as many training steps
+# as the shipped model took (real clips give fewer windows per epoch).
+CONV_AE = (["--normalization", "shared_pose", "--lr", "2e-3", "--set", "depool=linear", "input_dropout=0.0",
+            "l1=0.0"], 40)
+VAE = (["--normalization", "shared_pose", "--lr", "1e-3", "--set", "latent=16", "beta=32.0"], 60)
+VAE_LSTM = (["--lr", "3e-3", "--set", "observation_std=3.0"], 20)
 
 
 def report_row(name: str, features: np.ndarray, rest) -> None:
@@ -33,42 +57,89 @@ def report_row(name: str, features: np.ndarray, rest) -> None:
           f"| {100 * r['foot skating (m/s)']:.2f} | {100 * r['bone drift']:.2f} |")
 
 
-def load(name: str):
-    if name not in pretrained.available():
-        print(f"| {name} | not shipped (`make checkpoints`) | | | | |")
-        return None
-    return pretrained.load(name)
-
-
 def verdict_line(verdict) -> str:
     return "holds" if verdict else "fails: " + "; ".join(verdict.failures)
 
 
-def main() -> None:
-    truth = experiments.held_out_windows(WINDOW, FPS)
-    rest = metrics.foot_rest_heights(to_positions(truth, FPS))
-    print(f"held-out built-in data: {len(truth)} windows of {WINDOW} frames at {FPS:g} fps\n")
+def shipped() -> tuple[dict, np.ndarray, dict]:
+    """The shipped models and the held-out built-in windows."""
+    models = {}
+    for name in ("conv_ae", "vae", "vae_lstm"):
+        if name in pretrained.available():
+            models[name] = pretrained.load(name)
+        else:
+            print(f"{name}: not shipped (`make checkpoints` makes it)")
+    presets = {}
+    if "vae_lstm" in models:
+        for preset in ("walk", "run"):
+            reference, swing = experiments.data_stepping(preset, STEER_S, FPS)
+            presets[preset] = (experiments.walked_preset(preset, STEER_S, FPS), reference, swing)
+    return models, experiments.held_out_windows(WINDOW, FPS), presets
 
-    print("## 1. Motion like the data (4-s windows; models generate 64)\n")
+
+def trained_on(folder: str) -> tuple[dict, np.ndarray, dict]:
+    """Models trained on ``folder`` by the shipped recipes (cached), its test windows and the
+    test clips to steer by."""
+    cache = pretrained.CACHE / "quality" / Path(folder).resolve().name
+    cache.mkdir(parents=True, exist_ok=True)
+    common = ["--data", folder, "--half"]
+    conv_ae, vae, vae_lstm = (cache / f"{name}.pt" for name in ("conv_ae", "vae", "vae_lstm"))
+    recipes = [("conv_ae", conv_ae, ["conv_ae", *common, "--stride", "0.25", *CONV_AE[0], f"window={REAL_WINDOW}"]),
+               ("vae", vae, ["vae", "--conv-ae", str(conv_ae), *common, "--stride", "0.25", *VAE[0]]),
+               ("vae_lstm", vae_lstm, ["vae_lstm", *common, *VAE_LSTM[0], f"window={REAL_WINDOW}"])]
+    for name, path, argv in recipes:
+        if not path.exists():
+            shipped_steps = len(training.load_checkpoint(pretrained.path(name)).history.train) \
+                if name in pretrained.available() else None
+            budget = ["--max-steps", str(shipped_steps)] if shipped_steps else \
+                ["--epochs", str({"conv_ae": CONV_AE, "vae": VAE, "vae_lstm": VAE_LSTM}[name][1])]
+            print(f"training: python -m motionlab.train {' '.join(argv + budget)}")
+            cli.main([*argv, *budget, "--out", str(path)])
+    models = {"conv_ae": training.load_checkpoint(conv_ae).model, "vae": pretrained.load_motion_vae(vae),
+              "vae_lstm": training.load_checkpoint(vae_lstm).model}         # in eval mode, normaliser kept
+    clips = data.load(folder, fps=FPS)
+    prepared = data.prepare(clips, window_s=REAL_WINDOW / FPS, stride_s=0.25)
+    test = prepared.in_data_units(prepared.test.windows)
+    steer = {}
+    frames = int(REAL_STEER_S * FPS) + 1
+    for clip in clips:
+        if clip.name in prepared.description["clips"]["test"] and len(clip.features()) >= frames:
+            features = clip.features()[:frames]
+            swing = metrics.leg_swing(features[None])
+            steer[clip.name] = (features[:, metrics.N_POSE:], metrics.stepping_by_second(features[None], FPS)[0],
+                                swing)
+    return models, test, steer
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--data", default="synthetic",
+                        help="'synthetic' (the shipped checkpoints) or a folder of .bvh / .amc files")
+    args = parser.parse_args(argv)
+    real = args.data != "synthetic"
+    models, truth, steer = trained_on(args.data) if real else shipped()
+    rest = metrics.foot_rest_heights(to_positions(truth, FPS))
+    where = f"test clips of {args.data}" if real else "held-out built-in data"
+    print(f"{where}: {len(truth)} windows of {truth.shape[1]} frames at {FPS:g} fps\n")
+
+    print("## 1. Motion like the data (models generate 64 windows)\n")
     print("| rows | stepping (m/s) | leg swing (cm) | ankle height above planted (cm) | foot skating (cm/s) "
           "| bone drift (%) |")
     print("|---|---|---|---|---|---|")
-    report_row("data (held-out windows)", truth, rest)
+    report_row("data (" + ("test windows" if real else "held-out windows") + ")", truth, rest)
     mean = truth.reshape(-1, truth.shape[-1]).mean(0)
     report_row("baseline: mean pose on the true path", experiments.mean_pose_on_path(truth, mean), rest)
     report_row("baseline: constant pose", experiments.constant_pose(truth), rest)
-    vae = load("vae")
+    vae, vae_lstm, conv_ae = models.get("vae"), models.get("vae_lstm"), models.get("conv_ae")
     samples = None
     if vae is not None:
         samples = vae.generate(n=64, seed=0).features
         report_row("Motegi VAE, samples from the prior", samples, rest)
-    vae_lstm = load("vae_lstm")
     if vae_lstm is not None:
         steered = vae_lstm.generate(truth[..., metrics.N_POSE:], n=len(truth), seed=0).features
-        report_row("Habibie VAE-LSTM, given the held-out control", steered, rest)
+        report_row("Habibie VAE-LSTM, given the test control", steered, rest)
 
-    print("\n## 2. Conv autoencoder against trivial reconstructions (held-out windows)\n")
-    conv_ae = load("conv_ae")
+    print("\n## 2. Conv autoencoder against trivial reconstructions\n")
     if conv_ae is not None:
         norm = conv_ae.normalizer
         windows = truth[:, :conv_ae.config.window]
@@ -89,19 +160,19 @@ def main() -> None:
         effects = axis_effects(vae.decode, vae.vae.config.latent, metrics.describe_motion, n_bases=16,
                                low=0.05, high=0.95)
         spread = {name: float(v.std()) for name, v in metrics.describe_motion(truth[:, :samples.shape[1]]).items()}
-        verdict = claims.axes_control_parts(effects, spread)
-        print(verdict)
+        print(claims.axes_control_parts(effects, spread))
 
     if vae_lstm is not None:
-        print(f"\n## 4. Habibie VAE-LSTM steered for {STEER_S:g} s (4 samples, walked preset paths)\n")
+        what = f"by the control of each test clip of {REAL_STEER_S:g} s or more" if real else \
+            f"for {STEER_S:g} s along walked preset paths"
+        print(f"\n## 4. Habibie VAE-LSTM steered {what} (4 samples each)\n")
         print("| path | data stepping (m/s) | stepping / data, second by second | leg swing / data | claim |")
         print("|---|---|---|---|---|")
-        for preset in ("walk", "run"):
-            reference, swing = experiments.data_stepping(preset, STEER_S, FPS)
-            motion = vae_lstm.generate(experiments.walked_preset(preset, STEER_S, FPS), n=4, seed=0).features
-            verdict = claims.steps_steadily(motion, reference, swing, FPS, name=preset)
+        for name, (control, reference, swing) in steer.items():
+            motion = vae_lstm.generate(control, n=4, seed=0).features
+            verdict = claims.steps_steadily(motion, reference, swing, FPS, name=name)
             ratios = metrics.stepping_by_second(motion, FPS).mean(0) / reference
-            print(f"| {preset} | {reference.mean():.2f} | {' '.join(f'{r:.2f}' for r in ratios)} "
+            print(f"| {name} | {reference.mean():.2f} | {' '.join(f'{r:.2f}' for r in ratios)} "
                   f"| {metrics.leg_swing(motion) / swing:.2f} | {verdict_line(verdict)} |")
 
 

@@ -475,6 +475,10 @@ def _swing(rest: np.ndarray, current: np.ndarray) -> np.ndarray:
     return out
 
 
+END_SITE_M = 0.05
+"""How far :func:`from_positions` puts each leaf's End Site beyond the leaf joint, metres."""
+
+
 def from_positions(positions: np.ndarray, fps: float, skeleton=None, unit_m: float = 1.0) -> BVH:
     """Joint positions -> a BVH clip whose forward kinematics gives them back.
 
@@ -489,7 +493,10 @@ def from_positions(positions: np.ndarray, fps: float, skeleton=None, unit_m: flo
     the smallest rotation from the rest direction, so positions come back exactly when bone
     lengths are constant (and with the mean lengths when they are not). A joint with several
     children (the hips, the chest) gets one zero-length helper joint per child, named
-    ``<child>_base``, as the CMU skeleton has ``LHipJoint``, ``LowerBack`` and so on.
+    ``<child>_base``, as the CMU skeleton has ``LHipJoint``, ``LowerBack`` and so on. Each
+    leaf joint (toes, fingers, head) turns with the bone that ends in it and carries an
+    ``End Site`` :data:`END_SITE_M` further along that bone, so that animation tools draw
+    the last bone of each chain as a continuation of the one before it.
     """
     from .representation import facing_angles
     from .skeleton import LOCOMOTION
@@ -518,23 +525,33 @@ def from_positions(positions: np.ndarray, fps: float, skeleton=None, unit_m: flo
         body_rot.append(rotation)
         return len(names) - 1
 
-    def visit(joint: int, file_parent: int, offset: np.ndarray, rotation_in: np.ndarray | None) -> None:
+    end_sites: dict[int, np.ndarray] = {}
+
+    def visit(joint: int, file_parent: int, offset: np.ndarray, rotation_in: np.ndarray | None,
+              incoming: np.ndarray) -> None:
+        """Add ``joint`` under ``file_parent``; ``incoming``: the rotation of the bone ending here."""
         kids = children[joint]
         if len(kids) == 1:
             kid_offset, rotation = bone_rotation(joint, kids[0])
+        elif not kids:
+            rotation = incoming           # a leaf turns with its bone, so its End Site extends it
         else:
             rotation = rotation_in if rotation_in is not None else np.broadcast_to(np.eye(3), (frames, 3, 3))
         index = add(skeleton.names[joint], file_parent, offset, rotation)
-        if len(kids) == 1:
-            visit(kids[0], index, kid_offset, None)
-        elif len(kids) > 1:
+        if not kids:                      # End Site: END_SITE_M further along the bone's rest direction
+            direction = offset / max(np.linalg.norm(offset), 1e-12)
+            end_sites[index] = direction * END_SITE_M / unit_m
+        elif len(kids) == 1:
+            visit(kids[0], index, kid_offset, None, rotation)
+        else:
             for kid in kids:
                 kid_offset, kid_rotation = bone_rotation(joint, kid)
                 helper = add(f"{skeleton.names[kid]}_base", index, np.zeros(3), kid_rotation)
-                visit(kid, helper, kid_offset, None)
+                visit(kid, helper, kid_offset, None, kid_rotation)
 
     root = int(np.flatnonzero(skeleton.parents < 0)[0])
-    visit(root, -1, np.zeros(3), np.broadcast_to(np.eye(3), (frames, 3, 3)))
+    identity = np.broadcast_to(np.eye(3), (frames, 3, 3))
+    visit(root, -1, np.zeros(3), identity, identity)
     body_rot = np.stack(body_rot, axis=1)                           # (frames, J', 3, 3)
     world_rot = heading[:, None] @ body_rot
     parent_rot = np.stack([world_rot[:, p] if p >= 0 else np.broadcast_to(np.eye(3), (frames, 3, 3))
@@ -544,6 +561,5 @@ def from_positions(positions: np.ndarray, fps: float, skeleton=None, unit_m: flo
     motion = np.concatenate([positions[:, root] / unit_m, angles], axis=1)
     channels = [("Xposition", "Yposition", "Zposition", "Zrotation", "Yrotation", "Xrotation")] + \
         [("Zrotation", "Yrotation", "Xrotation")] * (len(names) - 1)
-    leaves = {i: np.array([0.0, 0.05 / unit_m, 0.0]) for i in range(len(names)) if i not in parents}
     return BVH(names, np.array(parents, dtype=np.int64), np.array(offsets) / unit_m, channels,
-               motion, 1.0 / fps, leaves)
+               motion, 1.0 / fps, end_sites)

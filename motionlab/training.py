@@ -254,9 +254,24 @@ def train(model: nn.Module, data, config: TrainConfig | None = None,
                 break
     finally:
         bar.close()
-        history.seconds += time.perf_counter() - began
+        seconds = time.perf_counter() - began
+        history.seconds += seconds
         model.to(home).eval()
+    if config.progress:        # a bar's saved state is its first; this line is what a saved notebook keeps
+        print(summary_line(type(model).__name__, step, seconds, last_finite,
+                           history.val[-1]["loss"] if val_set is not None and history.val else None))
     return history
+
+
+def summary_line(name: str, steps: int, seconds: float, loss: float | None, val_loss: float | None = None) -> str:
+    """One line that says a training run finished: ``"VAELSTM: 1200 steps in 41.5 s, final
+    loss 0.1234 (validation 0.1300)"``."""
+    text = f"{name}: {steps} steps in {seconds:.1f} s"
+    if loss is not None:
+        text += f", final loss {loss:.4g}"
+    if val_loss is not None:
+        text += f" (validation {val_loss:.4g})"
+    return text
 
 
 def train_stages(model: nn.Module, data, configs, stages: tuple[str, ...] | None = None) -> dict:

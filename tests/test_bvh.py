@@ -140,6 +140,28 @@ def test_from_positions_writes_a_bvh_that_gives_the_positions_back(tmp_path):
     assert np.abs(back.positions - motion.positions).max() < 1e-4
 
 
+def test_from_positions_points_each_end_site_along_its_bone(tmp_path):
+    from motionlab import data, synthetic
+    from motionlab.skeleton import LOCOMOTION
+    motion = synthetic.random_motion(4, 20, seed=2)
+    clip = bvh.from_positions(motion.positions, 20, unit_m=data.CMU_UNIT_M)
+    bvh.write(tmp_path / "ends.bvh", clip)
+    back = bvh.read(tmp_path / "ends.bvh")                     # as Blender would import it
+    leaves = sorted(back.end_sites)
+    assert [back.joint_names[j] for j in leaves] == ["LeftToeBase", "RightToeBase", "Head",
+                                                     "LeftHandIndex1", "RightHandIndex1"]
+    everything = back.world_positions(include_end_sites=True) * data.CMU_UNIT_M
+    joints, ends = everything[:, :len(back.joint_names)], everything[:, len(back.joint_names):]
+    for k, leaf in enumerate(leaves):
+        name = back.joint_names[leaf]
+        parent = LOCOMOTION.parents[LOCOMOTION.index(name)]
+        bone = joints[:, leaf] - motion.positions[:, parent]
+        extension = ends[:, k] - joints[:, leaf]
+        assert np.allclose(np.linalg.norm(extension, axis=-1), bvh.END_SITE_M, atol=1e-6)
+        cosine = (bone * extension).sum(-1) / np.linalg.norm(bone, axis=-1) / bvh.END_SITE_M
+        assert cosine.min() > 0.999, (name, cosine.min())      # straight on, every frame: no hooks
+
+
 def test_from_positions_survives_half_turns_and_rejects_bad_shapes():
     from conftest import walker
     walk = walker(frames=100, fps=20, speed=1.0, turn_rate=np.pi)      # turns 5 half-turns

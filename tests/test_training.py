@@ -47,6 +47,17 @@ def test_training_reduces_the_loss_and_logs_history():
         history.series("nope")
 
 
+def test_a_finished_run_leaves_a_one_line_summary(capsys):
+    """The progress bar's saved state in a notebook is its first; the summary line is its last."""
+    model = Line()
+    history = training.train(model, (windows(), windows(16, 1)), training.TrainConfig(epochs=3, lr=0.2))
+    out = capsys.readouterr().out.strip().splitlines()
+    assert len(out) == 1 and out[0].startswith("Line: 6 steps in ")
+    assert f"final loss {history.train[-1]['loss']:.4g} (validation {history.val[-1]['loss']:.4g})" in out[0]
+    training.train(Line(), windows(), training.TrainConfig(epochs=1, progress=False))
+    assert capsys.readouterr().out == ""                                   # progress=False: silent
+
+
 def test_seeded_training_is_reproducible():
     def run():
         torch.manual_seed(123)

