@@ -6,7 +6,9 @@ picture is rotated, never mirrored (a left foot stays a left foot). Left-side bo
 drawn in blue, right-side bones in red, the spine and head in black.
 
 Animations come back as matplotlib ``FuncAnimation`` objects: :func:`to_html` turns one
-into HTML that plays in a notebook without ffmpeg, :func:`save_gif` writes a GIF.
+into HTML that plays in a notebook without ffmpeg, :func:`stills` into a picture of a few of
+its frames (what :func:`show` puts below the player, for readers without JavaScript),
+:func:`save_gif` writes a GIF.
 """
 from __future__ import annotations
 
@@ -201,8 +203,50 @@ def animate(clips: np.ndarray | Sequence[np.ndarray], fps: float, titles: Sequen
         return artists
 
     anim = animation.FuncAnimation(fig, draw, frames=frames, interval=1000 * step / fps, blit=False)
+    anim.motion_frames, anim.motion_fps = frames, fps          # for stills(): which frames, at what time
     plt.close(fig)
     return anim
+
+
+def stills(anim: animation.FuncAnimation, n: int = 4, dpi: int = 50) -> np.ndarray:
+    """The static companion of an animation made by :func:`animate`: ``n`` of its frames,
+    evenly spaced from the first to the last, stacked top to bottom, each labelled with its
+    time. Returns an RGB image ``(height, width, 3)``, ``uint8`` (``n`` rows of the
+    animation's figure at ``dpi``).
+
+    A reader without a running kernel (GitHub, nbviewer, an HTML export with JavaScript off)
+    sees no frame of the JavaScript player; :func:`show` puts this picture below it."""
+    n = checks.whole(n, "n")
+    frames = getattr(anim, "motion_frames", None)
+    if frames is None:
+        raise ValueError("anim: expected an animation made by viz.animate (it records its frames)")
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    fig = anim._fig
+    fig.set_dpi(checks.positive(dpi, "dpi"))
+    canvas = FigureCanvasAgg(fig)                      # animate() closed its figure: draw off-screen
+    picks = [frames[round(k)] for k in np.linspace(0, len(frames) - 1, min(n, len(frames)))]
+    label = fig.text(0.01, 0.98, "", va="top", fontsize=9)
+    rows = []
+    for frame in picks:
+        anim._func(frame)
+        label.set_text(f"t = {frame / anim.motion_fps:.1f} s")
+        canvas.draw()
+        rows.append(np.asarray(canvas.buffer_rgba())[..., :3].copy())
+    label.remove()
+    return np.concatenate(rows, axis=0)
+
+
+class Shown:
+    """What :func:`show` returns: in a notebook, the JavaScript player and below it the
+    still frames (:func:`stills`) as a PNG, two outputs a saved notebook keeps."""
+
+    def __init__(self, html: str, png: bytes):
+        self.html, self.png = html, png
+
+    def _ipython_display_(self):
+        from IPython.display import HTML, Image, display
+        display(HTML(self.html))
+        display(Image(data=self.png, format="png"))
 
 
 def to_html(anim: animation.FuncAnimation, dpi: int = 72, frame_format: str = "jpeg") -> str:
@@ -217,10 +261,14 @@ def to_html(anim: animation.FuncAnimation, dpi: int = 72, frame_format: str = "j
         return anim.to_jshtml(default_mode="loop")
 
 
-def show(anim: animation.FuncAnimation, dpi: int = 72):
-    """Display an animation in a notebook cell (an ``IPython.display.HTML`` object)."""
-    from IPython.display import HTML
-    return HTML(to_html(anim, dpi=dpi))
+def show(anim: animation.FuncAnimation, dpi: int = 72, still_frames: int = 4) -> Shown:
+    """Display an animation of :func:`animate` in a notebook cell: the player (:func:`to_html`)
+    and, below it, ``still_frames`` of its frames as one picture (:func:`stills`), which
+    shows wherever the player cannot run."""
+    import io
+    buffer = io.BytesIO()
+    plt.imsave(buffer, stills(anim, still_frames), format="png")
+    return Shown(to_html(anim, dpi=dpi), buffer.getvalue())
 
 
 def save_gif(anim: animation.FuncAnimation, path: str, fps: float | None = None, dpi: int = 72) -> None:

@@ -17,6 +17,10 @@ from IPython.display import clear_output, display
 from . import viz
 
 
+SNAPSHOT_NOTE = "Still picture of the panel as first drawn (the panel above redraws when you move its controls)."
+"""The caption of the static snapshot every panel leaves below itself."""
+
+
 class _Panel:
     """Base of the panels: each has a ``widget``, an ``output`` area and a ``figure()``
     method; :meth:`redraw` puts the figure in the output whenever a widget changes."""
@@ -32,8 +36,15 @@ class _Panel:
             plt.close(fig)
 
     def _ipython_display_(self) -> None:
+        from IPython.display import Markdown
         self.redraw()
         display(self.widget)
+        # A still of the panel as first drawn: a saved notebook keeps it where widgets show
+        # nothing (GitHub, nbviewer, an HTML export); the panel above redraws as you move it.
+        display(Markdown(f"*{SNAPSHOT_NOTE}*"))
+        fig = self.figure()
+        display(fig)
+        plt.close(fig)
 
 
 class ClipBrowser(_Panel):

@@ -59,3 +59,19 @@ def test_control_and_frame_plots(tmp_path):
         viz.plot_frame(walk, 80, 20)
     with pytest.raises(ValueError, match="control: expected"):
         viz.plot_controls(np.zeros((5, 4)), 20)
+
+
+def test_show_leaves_still_frames_beside_the_player():
+    import io
+    walk, run = walker(frames=40), walker(frames=30, speed=3.0)
+    anim = viz.animate([walk, run], fps=20, titles=["walk", "run"], step=2)
+    rows = viz.stills(anim, n=4, dpi=40)
+    width, height = anim._fig.get_size_inches() * 40
+    assert rows.dtype == np.uint8 and rows.shape == (4 * round(height), round(width), 3)
+    assert rows.std() > 0                                           # something is drawn
+    shown = viz.show(anim, still_frames=3)
+    assert "<script" in shown.html
+    still = Image.open(io.BytesIO(shown.png))
+    assert still.format == "PNG" and still.size[1] == 3 * round(anim._fig.get_size_inches()[1] * 50)   # stills' 50 dpi
+    with pytest.raises(ValueError, match="viz.animate"):
+        viz.stills(object.__new__(type(anim)))

@@ -82,3 +82,15 @@ def test_control_panel_builds_controls_and_renders_headless(monkeypatch):
     plt.close(anim._fig)
     with pytest.raises(ValueError, match="duration_s"):
         widgets.ControlPanel(generate, fps=20.0, duration_s=0)
+
+
+def test_a_displayed_panel_leaves_a_still_picture_below_it(clips, monkeypatch):
+    shown = []
+    monkeypatch.setattr(widgets, "display", lambda obj: shown.append(obj))
+    browser = widgets.ClipBrowser(clips)
+    browser._ipython_display_()
+    # the redraw into the panel's output, then the panel, the caption and the still figure
+    assert shown[-3] is browser.widget
+    assert [type(obj).__name__ for obj in shown[-2:]] == ["Markdown", "Figure"]
+    assert widgets.SNAPSHOT_NOTE in shown[-2].data
+    assert "synthetic_000, frame 0" in shown[-1].axes[0].get_title()
