@@ -358,28 +358,39 @@ def plot_history(history, keys: Sequence[str] = ("loss",), ax=None, log: bool = 
 
 def plot_conv_filters(weight, feature_names: Sequence[str], n: int = 6, fps: float | None = None):
     """The ``n`` strongest filters of a temporal convolution, ``weight`` ``(filters, features, width)``,
-    as heat maps of feature (rows) against time offset (columns). Red and blue are positive and
-    negative weights. Returns the figure."""
+    as heat maps of feature (rows) against time offset (columns), each divided by its own
+    largest absolute weight (red positive, blue negative; one colour bar). Rows are labelled
+    once per joint (its x, y, z rows, between thin lines) and once per other feature.
+    Returns the figure."""
     weight = weight.detach().cpu() if hasattr(weight, "detach") else weight
     weight = checks.array(weight, "weight", ("filters", len(feature_names), "width"), dtype=None)
     n = checks.whole(n, "n")
     fps = None if fps is None else checks.rate(fps, "fps")
     order = np.argsort(-np.abs(weight).sum(axis=(1, 2)))[:n]
-    fig, axes = plt.subplots(1, len(order), figsize=(1.6 * len(order) + 1.5, 6), sharey=True)
+    fig, axes = plt.subplots(1, len(order), figsize=(1.6 * len(order) + 2.5, 7), sharey=True)
     axes = np.atleast_1d(axes)
     width = weight.shape[2]
     offsets = np.arange(width) - width // 2
+    groups: list[tuple[str, int, int]] = []            # (name, first row, last row): "Hips.x".."Hips.z" -> Hips
+    for row, name in enumerate(feature_names):
+        base = name.split(".")[0]
+        if groups and groups[-1][0] == base and "." in name:
+            groups[-1] = (base, groups[-1][1], row)
+        else:
+            groups.append((base, row, row))
     for ax, index in zip(axes, order):
-        w = weight[index]
-        limit = np.abs(w).max()
-        ax.imshow(w, aspect="auto", cmap="RdBu_r", vmin=-limit, vmax=limit,
-                  extent=(offsets[0] - 0.5, offsets[-1] + 0.5, len(feature_names) - 0.5, -0.5))
+        w = weight[index] / max(np.abs(weight[index]).max(), 1e-12)
+        image = ax.imshow(w, aspect="auto", cmap="RdBu_r", vmin=-1, vmax=1,
+                          extent=(offsets[0] - 0.5, offsets[-1] + 0.5, len(feature_names) - 0.5, -0.5))
+        for _, first, _ in groups[1:]:
+            ax.axhline(first - 0.5, color="0.6", lw=0.3)
         ax.set_title(f"filter {index}", fontsize=9)
-        ax.set_xlabel("frames" if fps is None else f"frames ({1000 / fps:.0f} ms)", fontsize=8)
-    step = 3
-    axes[0].set_yticks(range(0, len(feature_names), step))
-    axes[0].set_yticklabels([name.split(".")[0] for name in feature_names[::step]], fontsize=7)
+    fig.supxlabel("time offset, frames" if fps is None else f"time offset, frames ({1000 / fps:.0f} ms each)",
+                  fontsize=9)
+    axes[0].set_yticks([(first + last) / 2 for _, first, last in groups])
+    axes[0].set_yticklabels([name for name, _, _ in groups], fontsize=7)
     fig.tight_layout()
+    fig.colorbar(image, ax=list(axes), shrink=0.6, pad=0.02, label="weight / the filter's largest |weight|")
     return fig
 
 
