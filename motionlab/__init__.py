@@ -17,7 +17,7 @@ __all__ = ["asfamc", "bvh", "checks", "claims", "clip", "data", "download", "exp
 
 
 def __getattr__(name: str):
-    if name in __all__:
+    if name in __all__:        # only the fixed names above: never a name taken from a file or input
         module = importlib.import_module(f".{name}", __name__)
         globals()[name] = module
         return module

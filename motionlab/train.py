@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import importlib
 import math
 import sys
 from pathlib import Path
@@ -27,7 +26,7 @@ from typing import Any, NamedTuple
 import torch
 
 from . import checks, data, training
-from .models import MODELS
+from .models import MODELS, classes
 
 DFN_STAGES = ("frame", "sequence", "dynamics")          # motionlab.models.dfn.STAGES (§5.6)
 
@@ -293,8 +292,7 @@ def parse_overrides(config_class, items: list[str]) -> dict:
 
 def build_config(parser: argparse.ArgumentParser, args: argparse.Namespace):
     """The model's config: laptop or paper sizes, with ``--set`` changes (a usage error if bad)."""
-    module_name, _, config_name = MODELS[args.model]
-    config_class = getattr(importlib.import_module(module_name), config_name)
+    config_class = classes(args.model)[1]
     try:
         changes = parse_overrides(config_class, args.set)          # its messages name --set
         if args.model == "vae":                                    # the conv AE decides the input size
@@ -431,9 +429,9 @@ def _prepare(args: argparse.Namespace, fps: float, window_s: float) -> data.Moti
 
 
 def _model(args: argparse.Namespace, config) -> torch.nn.Module:
-    module_name, model_name, _ = MODELS[args.model]
-    print(f"model: {model_name}({config})")
-    return getattr(importlib.import_module(module_name), model_name)(config)
+    model_class = classes(args.model)[0]
+    print(f"model: {model_class.__name__}({config})")
+    return model_class(config)
 
 
 def train_windows(args, config, plan: Plan) -> tuple[torch.nn.Module, training.History, dict]:

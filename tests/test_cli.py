@@ -166,3 +166,12 @@ def test_bad_model_options_are_usage_errors_naming_the_option(argv, option, tmp_
     err = capsys.readouterr().err
     assert "usage:" in err and option in err.split("error:")[-1]
     assert not (tmp_path / "never.pt").exists()
+
+
+def test_the_registry_classes_are_imported_explicitly():
+    from motionlab.models import classes
+    for name, (module, model, config) in MODELS.items():
+        model_cls, config_cls = classes(name)
+        assert (model_cls.__module__, model_cls.__name__, config_cls.__name__) == (module, model, config)
+    with pytest.raises(ValueError, match="name: expected one of"):
+        classes("os")

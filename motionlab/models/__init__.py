@@ -12,3 +12,25 @@ MODELS = {
     "moglow": ("motionlab.models.moglow", "MoGlow", "MoGlowConfig"),
     "dfn": ("motionlab.models.dfn", "DFN", "DFNConfig"),                # trained in stages
 }
+
+
+def classes(name: str) -> tuple[type, type]:
+    """``(model class, config class)`` of the model ``name`` in :data:`MODELS`, imported
+    explicitly here (the command line never imports a module by a name it was given)."""
+    if name == "conv_ae":
+        from .conv_ae import ConvAEConfig as config, ConvAutoencoder as model
+    elif name == "vae":
+        from .vae import FeatureVAE as model, VAEConfig as config
+    elif name == "vae_lstm":
+        from .vae_lstm import VAELSTM as model, VAELSTMConfig as config
+    elif name == "lstm":
+        from .lstm import LSTMConfig as config, MotionLSTM as model
+    elif name == "glow":
+        from .glow import Glow as model, GlowConfig as config
+    elif name == "moglow":
+        from .moglow import MoGlow as model, MoGlowConfig as config
+    elif name == "dfn":
+        from .dfn import DFN as model, DFNConfig as config
+    else:
+        raise ValueError(f"name: expected one of {', '.join(MODELS)}, got {name!r}")
+    return model, config
