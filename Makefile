@@ -6,7 +6,7 @@ VENV   ?= .venv
 TORCH  ?= torch==2.13.0
 BIN     = $(VENV)/bin
 
-.PHONY: setup lab test clean checkpoints
+.PHONY: setup lab test html clean checkpoints
 
 setup: $(VENV)/.installed
 
@@ -21,6 +21,11 @@ lab: setup
 
 test: setup
 	$(BIN)/python -m pytest
+
+# The committed notebooks, outputs and all, as static pages in build/html (nothing is run):
+# what a reader sees on GitHub or nbviewer. tests/test_static_view.py checks them in Chromium.
+html: setup
+	$(BIN)/jupyter nbconvert --to html --output-dir build/html notebooks/*.ipynb
 
 # The trained weights shipped in data/checkpoints (notebooks 03, 04, 06 and 07 load them).
 # Each is the command line's checkpoint, weights stored as float16; times in data/README.md.

@@ -244,6 +244,13 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--half", action="store_true", help="store the weights as float16 (half the size)")
     parser.add_argument("--stride", type=_positive(checks.MAX_SECONDS), default=None,
                         help="seconds between window starts (default: half a window)")
+    parser.add_argument("--save-every", type=_whole(1), default=None, metavar="STEPS",
+                        help="keep the run's state in OUT.state every STEPS steps (and at the end)")
+    parser.add_argument("--save-every-minutes", type=_positive(24 * 60), default=None, metavar="MINUTES",
+                        help="... and/or every MINUTES of training")
+    parser.add_argument("--resume", action="store_true",
+                        help="continue from OUT.state where an earlier run stopped (same options); "
+                             "the result equals a run that never stopped")
     return parser
 
 
@@ -342,6 +349,8 @@ class Plan:
     seed: int = 0
     device: str = "auto"
     paper: bool = False
+    save_every_steps: int | None = None
+    save_every_s: float | None = None
     from_paper: list[str] = dataclasses.field(default_factory=list)
     choices: list[str] = dataclasses.field(default_factory=list)
     given: list[str] = dataclasses.field(default_factory=list)
@@ -355,7 +364,8 @@ class Plan:
         return training.TrainConfig(epochs=epochs, batch_size=self.batch_size, lr=self.lr,
                                     schedule=self.schedule, warmup_steps=self.warmup_steps,
                                     grad_clip=self.grad_clip, max_steps=self.max_steps,
-                                    seed=self.seed, device=self.device)
+                                    seed=self.seed, device=self.device, save_every_steps=self.save_every_steps,
+                                    save_every_s=self.save_every_s)
 
     def describe(self) -> str:
         lines = []
@@ -413,6 +423,8 @@ def training_plan(args: argparse.Namespace) -> Plan:
     if given_stages:
         shown_given.append(f"--stage-epochs {_show(given_stages)}")
     return Plan(**values, stage_epochs=stage_epochs, seed=args.seed, device=args.device, paper=args.paper,
+                save_every_steps=args.save_every,
+                save_every_s=None if args.save_every_minutes is None else 60 * args.save_every_minutes,
                 from_paper=from_paper, choices=choices, given=shown_given)
 
 
@@ -428,6 +440,19 @@ def _prepare(args: argparse.Namespace, fps: float, window_s: float) -> data.Moti
     return prepared
 
 
+def state_path(args: argparse.Namespace) -> Path:
+    """Where a run keeps its state for ``--resume``: ``OUT.state`` beside the checkpoint."""
+    out = Path(args.out or f"{args.model}.pt")
+    return out.with_name(out.name + ".state")
+
+
+def _state(args: argparse.Namespace) -> dict:
+    """``training.train``'s state_file and resume for these options (none without --save-every*/--resume)."""
+    if args.resume or args.save_every or args.save_every_minutes:
+        return {"state_file": state_path(args), "resume": args.resume}
+    return {}
+
+
 def _model(args: argparse.Namespace, config) -> torch.nn.Module:
     model_class = classes(args.model)[0]
     print(f"model: {model_class.__name__}({config})")
@@ -438,7 +463,7 @@ def train_windows(args, config, plan: Plan) -> tuple[torch.nn.Module, training.H
     """conv_ae, vae_lstm, lstm, glow, moglow: windows of the config's length and frame rate."""
     prepared = _prepare(args, config.fps, config.window / config.fps)
     model = _model(args, config)
-    history = training.train(model, prepared, plan.train_config(len(prepared.train)))
+    history = training.train(model, prepared, plan.train_config(len(prepared.train)), **_state(args))
     return model, history, {"data": prepared}
 
 
@@ -464,7 +489,8 @@ def train_vae(args, config, plan: Plan) -> tuple[torch.nn.Module, training.Histo
     print(f"features: conv AE {path} -> {conv_ae.config.window // 2} x {conv_ae.config.filters} "
           f"= {config.n_inputs} per window")
     model = _model(args, config)
-    history = training.train(model, (sets["train"], sets["val"]), plan.train_config(len(sets["train"])))
+    history = training.train(model, (sets["train"], sets["val"]), plan.train_config(len(sets["train"])),
+                             **_state(args))
     description = {**prepared.description, "conv_ae": str(path),
                    "motion_normalizer": motion_normalizer.state_dict(),
                    "features": "conv_ae.encode(motion_normalizer.normalize(windows)).flatten(1), "
@@ -489,7 +515,7 @@ def train_dfn(args, config, plan: Plan) -> tuple[torch.nn.Module, training.Histo
     prepared = _prepare(args, config.fps, args.window_s)
     model = _model(args, config)
     configs = {stage: plan.train_config(len(prepared.train), stage) for stage in DFN_STAGES}
-    histories = training.train_stages(model, prepared, configs)
+    histories = training.train_stages(model, prepared, configs, **_state(args))
     for stage, history in histories.items():
         print(f"stage {stage}: {len(history.train)} steps, final loss {history.series('loss')[1][-1]:.4f}")
     return model, _joined(histories), {"data": prepared}

@@ -50,6 +50,8 @@ class TrainConfig:
         max_steps: stop after this many steps (``None``: all epochs).
         num_threads: CPU threads for torch (``None``: torch's default).
         progress: show a progress bar.
+        save_every_steps, save_every_s: with a ``state_file`` (see :func:`train`), save the
+            run's state every this many steps and/or seconds (``None``: only at the end).
     """
 
     epochs: int = 20
@@ -65,6 +67,8 @@ class TrainConfig:
     max_steps: int | None = None
     num_threads: int | None = None
     progress: bool = True
+    save_every_steps: int | None = None
+    save_every_s: float | None = None
 
     def __post_init__(self):
         if self.epochs < 1 or self.batch_size < 1 or self.lr <= 0:
@@ -72,6 +76,10 @@ class TrainConfig:
                              f"{self.batch_size}, {self.lr}")
         if self.schedule not in ("cosine", "constant"):
             raise ValueError(f"schedule: expected 'cosine' or 'constant', got {self.schedule!r}")
+        if (self.save_every_steps is not None and self.save_every_steps < 1) or \
+                (self.save_every_s is not None and not self.save_every_s > 0):
+            raise ValueError(f"save_every_steps and save_every_s must be positive, got "
+                             f"{self.save_every_steps}, {self.save_every_s}")
 
 
 @dataclass
@@ -163,7 +171,8 @@ def _mean_terms(model: nn.Module, dataset, batch_size: int, device: torch.device
 
 
 def train(model: nn.Module, data, config: TrainConfig | None = None,
-          history: History | None = None) -> History:
+          history: History | None = None, *, state_file: str | Path | None = None,
+          resume: bool = False) -> History:
     """Train ``model`` on ``data`` and return the :class:`History`.
 
     Args:
@@ -172,6 +181,12 @@ def train(model: nn.Module, data, config: TrainConfig | None = None,
             ``(train, val)`` pair of datasets, or one training dataset.
         config: a :class:`TrainConfig` (default settings if ``None``).
         history: continue this history (training more epochs later).
+        state_file: keep the run's state here (:func:`save_state`: weights, optimiser,
+            schedule, step, random states, position in the data), every
+            ``config.save_every_steps`` steps or ``config.save_every_s`` seconds and at the end.
+        resume: continue from ``state_file`` when it exists: the run then ends exactly as
+            if it had never stopped (same batches, same random draws, same weights; the
+            config must be the one the state was saved with).
 
     Training runs on ``config.device`` (``"auto"``: a GPU when there is one); when it ends
     the model goes back to the device it came on (normally the CPU, where the notebooks'
@@ -185,6 +200,8 @@ def train(model: nn.Module, data, config: TrainConfig | None = None,
     train_set, val_set = _datasets(data)
     if len(train_set) == 0:
         raise ValueError("data: the training set is empty")
+    if resume and state_file is None:
+        raise ValueError("resume: needs a state_file to resume from")
     if getattr(data, "normalizer", None) is not None:
         model.normalizer = data.normalizer
     if config.num_threads:
@@ -216,12 +233,34 @@ def train(model: nn.Module, data, config: TrainConfig | None = None,
         return config.min_lr_ratio + (1 - config.min_lr_ratio) * 0.5 * (1 + math.cos(math.pi * progress))
 
     scheduler = torch.optim.lr_scheduler.LambdaLR(optimizer, lr_factor)
-    bar = tqdm(total=total, disable=not config.progress, desc=type(model).__name__, unit="step")
-    began = time.perf_counter()
-    step, last_finite = 0, None
+    # where the run is: steps done, the epoch and the batches done in it, and the batch
+    # generator's state when that epoch began (its shuffle is drawn from it)
+    run = {"step": 0, "epoch": start_epoch, "position": 0, "epoch_generator": generator.get_state(),
+           "start_step": start_step, "start_epoch": start_epoch}
+    if resume and Path(state_file).exists():
+        history = _restore_state(state_file, model, optimizer, scheduler, config, run)
+        start_step, start_epoch = run["start_step"], run["start_epoch"]
+        generator.set_state(run["epoch_generator"])
+    bar = tqdm(total=total, initial=run["step"], disable=not config.progress, desc=type(model).__name__, unit="step")
+    began = last_save = time.perf_counter()
+    seconds_before = history.seconds
+    step, last_finite = run["step"], None
+
+    def save() -> None:
+        history.seconds = seconds_before + time.perf_counter() - began
+        run.update(step=step)
+        save_state(state_file, model, optimizer, scheduler, config, history, run)
+
     try:
-        for epoch in range(start_epoch, start_epoch + config.epochs):
-            for batch in loader:
+        for epoch in range(run["epoch"], start_epoch + config.epochs):
+            if step >= total:
+                break
+            if epoch != run["epoch"]:                   # a new epoch (not the one being resumed)
+                run.update(epoch=epoch, position=0, epoch_generator=generator.get_state())
+            batches = iter(loader)
+            for _ in range(run["position"]):            # resuming mid-epoch: the same shuffle, skipped
+                next(batches)
+            for batch in batches:
                 terms = model.loss(batch.to(device))
                 loss = terms["loss"]
                 if not torch.isfinite(loss):
@@ -241,25 +280,108 @@ def train(model: nn.Module, data, config: TrainConfig | None = None,
                 row.update({key: float(value.detach()) for key, value in terms.items()})
                 history.train.append(row)
                 step += 1
+                run["position"] += 1
                 bar.update(1)
+                if state_file is not None and (
+                        (config.save_every_steps and step % config.save_every_steps == 0) or
+                        (config.save_every_s and time.perf_counter() - last_save >= config.save_every_s)):
+                    save()
+                    last_save = time.perf_counter()
                 if step >= total:
                     break
             if val_set is not None and len(val_set) > 0:
                 val = _mean_terms(model, val_set, config.batch_size, device)
                 history.val.append({"step": start_step + step - 1, "epoch": epoch, **val})
-                bar.set_postfix(loss=f"{last_finite:.4f}", val=f"{val['loss']:.4f}")
-            else:
+                bar.set_postfix(loss=f"{last_finite}" if last_finite is None else f"{last_finite:.4f}",
+                                val=f"{val['loss']:.4f}")
+            elif last_finite is not None:
                 bar.set_postfix(loss=f"{last_finite:.4f}")
-            if step >= total:
-                break
+            run.update(epoch=epoch + 1, position=0, epoch_generator=generator.get_state())
     finally:
         bar.close()
         seconds = time.perf_counter() - began
-        history.seconds += seconds
-        model.to(home).eval()
+        history.seconds = seconds_before + seconds
+    if state_file is not None:
+        save()
+    model.to(home).eval()
+    if last_finite is None and history.train:
+        last_finite = history.train[-1]["loss"]
     if config.progress:        # a bar's saved state is its first; this line is what a saved notebook keeps
         print(summary_line(type(model).__name__, step, seconds, last_finite,
                            history.val[-1]["loss"] if val_set is not None and history.val else None))
+    return history
+
+
+STATE_FORMAT = "motionlab-train-state-1"
+_RESUME_FREE = ("device", "num_threads", "progress", "save_every_steps", "save_every_s")
+"""TrainConfig fields a resumed run may change: they do not change what is computed."""
+
+
+def save_state(path: str | Path, model: nn.Module, optimizer, scheduler, config: TrainConfig,
+               history: History, run: dict) -> None:
+    """Write everything a run needs to continue exactly (see :func:`train`): the weights
+    and buffers, Adam's moments, the schedule, the history, where the run is in the data
+    and every random generator's state. Plain tensors and values only; the file is
+    replaced atomically, so a crash while saving leaves the previous state."""
+    np_state = np.random.get_state()
+    state = {"format": STATE_FORMAT, "model": type(model).__name__,
+             "model_config": dataclasses.asdict(model.config) if dataclasses.is_dataclass(getattr(model, "config", None)) else {},
+             "config": dataclasses.asdict(config),
+             "weights": {k: v.detach().cpu() for k, v in model.state_dict().items()},
+             "optimizer": optimizer.state_dict(), "scheduler": scheduler.state_dict(),
+             "history": history.to_dict(),
+             "run": {k: (v.clone() if isinstance(v, torch.Tensor) else int(v)) for k, v in run.items()},
+             "rng": {"torch": torch.get_rng_state(), "python": _plain(random.getstate()),
+                     "numpy": [np_state[0], torch.from_numpy(np_state[1].copy()), *map(float, np_state[2:])],
+                     "cuda": torch.cuda.get_rng_state_all() if torch.cuda.is_available() else []}}
+    path = Path(path)
+    partial = path.with_name(path.name + ".partial")
+    torch.save(state, partial)
+    os.replace(partial, path)
+
+
+def _plain(value):
+    """Python's random state (nested tuples of ints) as lists, which a weights-only load reads."""
+    return [_plain(v) for v in value] if isinstance(value, (tuple, list)) else value
+
+
+def _tuples(value):
+    return tuple(_tuples(v) for v in value) if isinstance(value, list) else value
+
+
+def _restore_state(path, model, optimizer, scheduler, config: TrainConfig, run: dict) -> History:
+    """Load :func:`save_state`'s file into the run; ``ValueError`` naming the file when it is
+    not such a file or was saved by a different model or config."""
+    try:
+        state = torch.load(path, map_location="cpu", weights_only=True)
+    except Exception as err:        # a damaged file, or one that is not a torch file at all
+        raise ValueError(f"{path}: not a training state ({type(err).__name__}: {err})") from None
+    if not isinstance(state, dict) or state.get("format") != STATE_FORMAT:
+        raise ValueError(f"{path}: not a motionlab training state (format {STATE_FORMAT!r})")
+    if state["model"] != type(model).__name__:
+        raise ValueError(f"{path}: saved while training {state['model']}, not {type(model).__name__}")
+    ours = dataclasses.asdict(config)
+    changed = sorted(k for k in ours if k not in _RESUME_FREE and state["config"].get(k) != ours[k])
+    if dataclasses.is_dataclass(getattr(model, "config", None)) and state["model_config"] != dataclasses.asdict(model.config):
+        changed.append("the model's config")
+    if changed:
+        raise ValueError(f"{path}: saved with a different {', '.join(changed)}; resume with the same "
+                         "settings, or start afresh without --resume")
+    try:
+        model.load_state_dict(state["weights"])
+        optimizer.load_state_dict(state["optimizer"])
+        scheduler.load_state_dict(state["scheduler"])
+        history = History.from_dict(state["history"])
+        run.update(state["run"])
+        rng = state["rng"]
+        torch.set_rng_state(rng["torch"])
+        random.setstate(_tuples(rng["python"]))
+        np.random.set_state((rng["numpy"][0], rng["numpy"][1].numpy(), int(rng["numpy"][2]),
+                             int(rng["numpy"][3]), float(rng["numpy"][4])))
+        if rng["cuda"] and torch.cuda.is_available():
+            torch.cuda.set_rng_state_all(rng["cuda"])
+    except (KeyError, RuntimeError, TypeError, IndexError) as err:
+        raise ValueError(f"{path}: damaged training state ({type(err).__name__}: {err})") from None
     return history
 
 
@@ -274,7 +396,8 @@ def summary_line(name: str, steps: int, seconds: float, loss: float | None, val_
     return text
 
 
-def train_stages(model: nn.Module, data, configs, stages: tuple[str, ...] | None = None) -> dict:
+def train_stages(model: nn.Module, data, configs, stages: tuple[str, ...] | None = None, *,
+                 state_file: str | Path | None = None, resume: bool = False) -> dict:
     """Train a staged model (``model.stages``, e.g. DFN's §5.6: the frame autoencoder, then
     the sequence autoencoder with it frozen, then the dynamics model with both frozen), one
     stage after another with :func:`train`.
@@ -287,6 +410,8 @@ def train_stages(model: nn.Module, data, configs, stages: tuple[str, ...] | None
         configs: one :class:`TrainConfig` for all stages, or a dict from stage name to its config.
         stages: which stages to run, in order (default: all; a later stage needs the earlier
             ones trained).
+        state_file, resume: as for :func:`train`; each stage keeps its own state in
+            ``<state_file>.<stage>``, so a resumed run skips the stages that finished.
 
     Returns ``{stage: History}``; afterwards every parameter is trainable again.
     """
@@ -306,7 +431,9 @@ def train_stages(model: nn.Module, data, configs, stages: tuple[str, ...] | None
     histories = {}
     for stage in stages:
         model.set_stage(stage, windows)
-        histories[stage] = train(model, data, configs[stage] if isinstance(configs, dict) else configs)
+        stage_state = None if state_file is None else Path(f"{state_file}.{stage}")
+        histories[stage] = train(model, data, configs[stage] if isinstance(configs, dict) else configs,
+                                 state_file=stage_state, resume=resume)
     for p in model.parameters():
         p.requires_grad_(True)
     return histories

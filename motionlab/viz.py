@@ -12,6 +12,8 @@ its frames (what :func:`show` puts below the player, for readers without JavaScr
 """
 from __future__ import annotations
 
+import re
+import textwrap
 from typing import Sequence
 
 import matplotlib
@@ -168,7 +170,8 @@ def animate(clips: np.ndarray | Sequence[np.ndarray], fps: float, titles: Sequen
     panels = []
     for i, clip in enumerate(clips):
         ax = fig.add_subplot(1, len(clips), i + 1, projection="3d")
-        _style_3d(ax, titles[i] if titles else None)
+        # a title wider than its panel would be cut at both ends: wrap it to the panel
+        _style_3d(ax, textwrap.fill(titles[i], max(12, int(10 * size))) if titles else None)
         if follow:                                   # the numbers would change every frame
             ax.set_xticklabels([]), ax.set_yticklabels([])
         height = clip[..., 1].max() + 0.1
@@ -258,7 +261,14 @@ def to_html(anim: animation.FuncAnimation, dpi: int = 72, frame_format: str = "j
     anim._fig.set_dpi(dpi)
     with matplotlib.rc_context({"animation.embed_limit": 50.0, "savefig.dpi": dpi,
                                 "animation.frame_format": frame_format}):
-        return anim.to_jshtml(default_mode="loop")
+        html = anim.to_jshtml(default_mode="loop")
+    # The player's <img> gets its picture from JavaScript once the page has run its script;
+    # give it the first frame up front, so it shows before Play (and where scripts are off).
+    first = re.search(r'frames\[0\] = "(data:image/[a-z]+;base64,[^"]+)"', html)
+    if first:
+        src = first.group(1).replace("\\\n", "")              # the JS string's line continuations
+        html = re.sub(r'<img id="(_anim_img\w+)">', lambda m: f'<img id="{m.group(1)}" src="{src}">', html, count=1)
+    return html
 
 
 def show(anim: animation.FuncAnimation, dpi: int = 72, still_frames: int = 4) -> Shown:
@@ -319,7 +329,7 @@ def plot_frame(positions: np.ndarray, frame: int, fps: float, fig=None, title: s
     fps = checks.rate(fps, "fps")
     if checks.whole(frame, "frame", 0) >= len(positions):
         raise ValueError(f"frame: expected 0..{len(positions) - 1}, got {frame}")
-    fig = fig or plt.figure(figsize=(9, 4))
+    fig = fig or plt.figure(figsize=(10, 4))
     ax3d = fig.add_subplot(1, 2, 1, projection="3d")
     plot_skeleton(positions[frame], ax=ax3d, skeleton=skeleton,
                   title=title or f"frame {frame} ({frame / fps:.2f} s)")
@@ -329,6 +339,8 @@ def plot_frame(positions: np.ndarray, frame: int, fps: float, fig=None, title: s
     ax.plot(root[:, 2], root[:, 0], color="tab:green")
     ax.plot(root[-1:, 2], root[-1:, 0], "o", color="tab:orange", ms=8)
     ax.set_title("path from above")
+    ax.yaxis.tick_right()                          # clear of the 3-D axes' height label on the left
+    ax.yaxis.set_label_position("right")
     return fig
 
 

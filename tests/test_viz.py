@@ -1,3 +1,7 @@
+import base64
+import io
+import re
+
 import matplotlib.pyplot as plt
 import numpy as np
 import pytest
@@ -38,6 +42,14 @@ def test_animation_html_gif_and_frames(tmp_path):
     anim = viz.animate([walk, run], fps=20, titles=["walk", "run"], step=2)
     html = viz.to_html(anim)
     assert "<script" in html and "animation" in html.lower()
+    # the player shows its first frame before any script runs (JupyterLab before Play, nbviewer)
+    first = re.search(r'frames\[0\] = "(data:image/jpeg;base64,[^"]+)"', html).group(1)
+    src = re.search(r'<img id="_anim_img\w+" src="([^"]+)"', html).group(1)
+    assert src == first.replace("\\\n", "") and re.fullmatch(r"data:image/jpeg;base64,[A-Za-z0-9+/=]+", src)
+    Image.open(io.BytesIO(base64.b64decode(src.split(",", 1)[1]))).verify()      # a whole JPEG
+    long_title = "forward +1.3 m/s, left +0.0 m/s, turn +0.0 rad/s, seed 0"
+    wrapped = viz.animate(walk, fps=20, titles=[long_title], size=3.0)._fig.axes[0].get_title()
+    assert "\n" in wrapped and wrapped.replace("\n", " ") == long_title       # wrapped to its panel, not cut
     viz.save_gif(anim, str(tmp_path / "a.gif"))
     gif = Image.open(tmp_path / "a.gif")
     assert gif.n_frames == 6
