@@ -436,8 +436,14 @@ def _prepare(args: argparse.Namespace, fps: float, window_s: float) -> data.Moti
     clips = data.load(args.data, fps=fps, n_clips=args.synthetic_clips, seed=args.seed)
     prepared = data.prepare(clips, window_s=window_s, stride_s=args.stride, seed=args.seed,
                             normalization=args.normalization)
-    print(prepared.summary())
+    say(prepared.summary())
     return prepared
+
+
+def say(*text) -> None:
+    """Print, from one process only (rank 0) when several train together under torchrun."""
+    if training.distributed()[0] == 0:
+        print(*text)
 
 
 def state_path(args: argparse.Namespace) -> Path:
@@ -455,7 +461,8 @@ def _state(args: argparse.Namespace) -> dict:
 
 def _model(args: argparse.Namespace, config) -> torch.nn.Module:
     model_class = classes(args.model)[0]
-    print(f"model: {model_class.__name__}({config})")
+    say(f"model: {model_class.__name__}({config})")
+    training.seed_everything(args.seed)          # the same command line starts from the same weights
     return model_class(config)
 
 
@@ -486,7 +493,7 @@ def train_vae(args, config, plan: Plan) -> tuple[torch.nn.Module, training.Histo
                 for split in ("train", "val", "test")}
     feature_normalizer = data.Normalizer.fit(features["train"].numpy())
     sets = {split: data.MotionDataset(feature_normalizer.normalize(f)) for split, f in features.items()}
-    print(f"features: conv AE {path} -> {conv_ae.config.window // 2} x {conv_ae.config.filters} "
+    say(f"features: conv AE {path} -> {conv_ae.config.window // 2} x {conv_ae.config.filters} "
           f"= {config.n_inputs} per window")
     model = _model(args, config)
     history = training.train(model, (sets["train"], sets["val"]), plan.train_config(len(sets["train"])),
@@ -517,7 +524,7 @@ def train_dfn(args, config, plan: Plan) -> tuple[torch.nn.Module, training.Histo
     configs = {stage: plan.train_config(len(prepared.train), stage) for stage in DFN_STAGES}
     histories = training.train_stages(model, prepared, configs, **_state(args))
     for stage, history in histories.items():
-        print(f"stage {stage}: {len(history.train)} steps, final loss {history.series('loss')[1][-1]:.4f}")
+        say(f"stage {stage}: {len(history.train)} steps, final loss {history.series('loss')[1][-1]:.4f}")
     return model, _joined(histories), {"data": prepared}
 
 
@@ -533,15 +540,29 @@ def main(argv: list[str] | None = None) -> training.History:
     if args.model == "dfn":
         args.window_s = dfn_window_s(parser, args, config)
     plan = training_plan(args)
-    print(plan.describe())
-    print(f"device: {training.pick_device(args.device)}")
-    model, history, saved = TRAINERS.get(args.model, train_windows)(args, config, plan)
-    out = args.out or f"{args.model}.pt"
-    training.save_checkpoint(out, model.cpu(), history=history, half=args.half, **saved)
-    summary = f"trained in {history.seconds:.1f} s; final training loss {history.series('loss')[1][-1]:.4f}"
-    if history.val:
-        summary += f", validation loss {history.last('loss'):.4f}"
-    print(f"{summary}\nsaved {out}")
+    joined = training.init_distributed()               # under torchrun: one process per GPU / CPU share
+    rank, world = training.distributed()
+    try:
+        if plan.batch_size % world:
+            parser.error(f"--batch-size: {plan.batch_size} windows do not split over {world} processes; "
+                         f"give a multiple of {world} (the batch is the global one)")
+        if rank == 0:
+            print(plan.describe())
+            device = training.pick_device(args.device)
+            print(f"device: {device}" + (f" x {world} processes ({torch.distributed.get_backend()})" if joined else ""))
+            print(f"batch: {plan.batch_size} windows per step in all ({plan.batch_size // world} per process "
+                  f"x {world} process{'es' if world > 1 else ''})")
+        model, history, saved = TRAINERS.get(args.model, train_windows)(args, config, plan)
+        out = args.out or f"{args.model}.pt"
+        if rank == 0:
+            training.save_checkpoint(out, model.cpu(), history=history, half=args.half, **saved)
+            summary = f"trained in {history.seconds:.1f} s; final training loss {history.series('loss')[1][-1]:.4f}"
+            if history.val:
+                summary += f", validation loss {history.last('loss'):.4f}"
+            print(f"{summary}\nsaved {out}")
+    finally:
+        if joined:
+            torch.distributed.destroy_process_group()
     return history
 
 

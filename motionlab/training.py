@@ -139,6 +139,40 @@ def seed_everything(seed: int) -> None:
     torch.manual_seed(seed)
 
 
+def distributed() -> tuple[int, int]:
+    """``(rank, world_size)`` of this process: ``(0, 1)`` unless ``torch.distributed`` is
+    initialised (:func:`init_distributed`, under ``torchrun``)."""
+    if torch.distributed.is_available() and torch.distributed.is_initialized():
+        return torch.distributed.get_rank(), torch.distributed.get_world_size()
+    return 0, 1
+
+
+def init_distributed() -> bool:
+    """Join the process group when this process was started by ``torchrun`` (``WORLD_SIZE``
+    and ``LOCAL_RANK`` set): NCCL when there is a GPU (each process takes GPU
+    ``LOCAL_RANK``), gloo on CPU. Returns whether it did; :func:`train` then trains with
+    ``DistributedDataParallel``."""
+    if "WORLD_SIZE" not in os.environ or torch.distributed.is_initialized():
+        return torch.distributed.is_initialized()
+    gpu = torch.cuda.is_available()
+    if gpu:
+        torch.cuda.set_device(int(os.environ.get("LOCAL_RANK", 0)))
+    torch.distributed.init_process_group("nccl" if gpu else "gloo")
+    return True
+
+
+class _Loss(nn.Module):
+    """``model.loss`` as a forward pass: DistributedDataParallel averages the gradients of
+    what its module's forward computes, and every motionlab model trains through ``loss``."""
+
+    def __init__(self, model: nn.Module):
+        super().__init__()
+        self.model = model
+
+    def forward(self, batch: torch.Tensor) -> dict[str, torch.Tensor]:
+        return self.model.loss(batch)
+
+
 def pick_device(device: str = "auto") -> torch.device:
     """``"auto"``: the first CUDA GPU if there is one, else the CPU."""
     if device == "auto":
@@ -188,6 +222,12 @@ def train(model: nn.Module, data, config: TrainConfig | None = None,
             if it had never stopped (same batches, same random draws, same weights; the
             config must be the one the state was saved with).
 
+    Under ``torchrun`` (after :func:`init_distributed`) every process runs this with the same
+    arguments: ``config.batch_size`` is the *global* batch, split evenly over the processes
+    (a ``DistributedSampler`` gives each its share of every epoch's shuffle), the model is
+    wrapped in ``DistributedDataParallel``, the logged terms are averaged over the processes,
+    and only rank 0 shows progress and writes ``state_file``.
+
     Training runs on ``config.device`` (``"auto"``: a GPU when there is one); when it ends
     the model goes back to the device it came on (normally the CPU, where the notebooks'
     tensors are), in eval mode. When ``data`` has a ``normalizer`` the model keeps it as
@@ -206,7 +246,11 @@ def train(model: nn.Module, data, config: TrainConfig | None = None,
         model.normalizer = data.normalizer
     if config.num_threads:
         torch.set_num_threads(config.num_threads)
-    seed_everything(config.seed)
+    rank, world = distributed()
+    if config.batch_size % world:
+        raise ValueError(f"batch_size: {config.batch_size} windows do not split over {world} processes; "
+                         f"give a multiple of {world}")
+    seed_everything(config.seed + rank)        # each process its own noise (dropout, sampling)
     device = pick_device(config.device)
     home = next(model.parameters(), torch.empty(0)).device
     model.to(device).train()
@@ -215,9 +259,20 @@ def train(model: nn.Module, data, config: TrainConfig | None = None,
     start_epoch = history.train[-1]["epoch"] + 1 if history.train else 0
 
     generator = torch.Generator().manual_seed(config.seed + start_epoch)
-    loader = torch.utils.data.DataLoader(train_set, batch_size=config.batch_size, shuffle=True,
-                                         drop_last=len(train_set) > config.batch_size,
-                                         generator=generator)
+    sampler = None
+    if torch.distributed.is_available() and torch.distributed.is_initialized():
+        sampler = torch.utils.data.DistributedSampler(train_set, num_replicas=world, rank=rank, shuffle=True,
+                                                      seed=config.seed, drop_last=True)
+        share = len(sampler)
+        loader = torch.utils.data.DataLoader(train_set, batch_size=config.batch_size // world, sampler=sampler,
+                                             drop_last=share > config.batch_size // world)
+        compute = torch.nn.parallel.DistributedDataParallel(
+            _Loss(model), device_ids=[device.index or torch.cuda.current_device()] if device.type == "cuda" else None)
+    else:
+        loader = torch.utils.data.DataLoader(train_set, batch_size=config.batch_size, shuffle=True,
+                                             drop_last=len(train_set) > config.batch_size,
+                                             generator=generator)
+        compute = model.loss
     total = config.epochs * len(loader)
     if config.max_steps is not None:
         total = min(total, config.max_steps)
@@ -241,7 +296,8 @@ def train(model: nn.Module, data, config: TrainConfig | None = None,
         history = _restore_state(state_file, model, optimizer, scheduler, config, run)
         start_step, start_epoch = run["start_step"], run["start_epoch"]
         generator.set_state(run["epoch_generator"])
-    bar = tqdm(total=total, initial=run["step"], disable=not config.progress, desc=type(model).__name__, unit="step")
+    bar = tqdm(total=total, initial=run["step"], disable=not config.progress or rank > 0,
+               desc=type(model).__name__, unit="step")
     began = last_save = time.perf_counter()
     seconds_before = history.seconds
     step, last_finite = run["step"], None
@@ -249,7 +305,13 @@ def train(model: nn.Module, data, config: TrainConfig | None = None,
     def save() -> None:
         history.seconds = seconds_before + time.perf_counter() - began
         run.update(step=step)
-        save_state(state_file, model, optimizer, scheduler, config, history, run)
+        generators = _random_states()
+        if world > 1:                     # every process's generators, so that each resumes its own
+            everyone = [None] * world
+            torch.distributed.all_gather_object(everyone, generators)
+            generators = everyone
+        if rank == 0:
+            save_state(state_file, model, optimizer, scheduler, config, history, run, generators)
 
     try:
         for epoch in range(run["epoch"], start_epoch + config.epochs):
@@ -257,13 +319,20 @@ def train(model: nn.Module, data, config: TrainConfig | None = None,
                 break
             if epoch != run["epoch"]:                   # a new epoch (not the one being resumed)
                 run.update(epoch=epoch, position=0, epoch_generator=generator.get_state())
+            if sampler is not None:
+                sampler.set_epoch(epoch)                # each epoch's shuffle, the same in every process
             batches = iter(loader)
             for _ in range(run["position"]):            # resuming mid-epoch: the same shuffle, skipped
                 next(batches)
             for batch in batches:
-                terms = model.loss(batch.to(device))
+                terms = compute(batch.to(device))
                 loss = terms["loss"]
-                if not torch.isfinite(loss):
+                logged = {key: value.detach().float().reshape(()) for key, value in terms.items()}
+                if world > 1:                           # the global batch's mean, the same in every process
+                    values = torch.stack(list(logged.values()))
+                    torch.distributed.all_reduce(values)
+                    logged = dict(zip(logged, values / world))
+                if not torch.isfinite(logged["loss"]):
                     raise NonFiniteLossError(
                         f"the loss became {loss.item()} at epoch {epoch}, step {start_step + step} "
                         f"(last finite loss: {last_finite}). Try a lower learning rate "
@@ -275,9 +344,9 @@ def train(model: nn.Module, data, config: TrainConfig | None = None,
                     nn.utils.clip_grad_norm_(model.parameters(), config.grad_clip)
                 optimizer.step()
                 scheduler.step()
-                last_finite = loss.item()
+                last_finite = float(logged["loss"])
                 row = {"step": start_step + step, "epoch": epoch, "lr": optimizer.param_groups[0]["lr"]}
-                row.update({key: float(value.detach()) for key, value in terms.items()})
+                row.update({key: float(value) for key, value in logged.items()})
                 history.train.append(row)
                 step += 1
                 run["position"] += 1
@@ -306,7 +375,7 @@ def train(model: nn.Module, data, config: TrainConfig | None = None,
     model.to(home).eval()
     if last_finite is None and history.train:
         last_finite = history.train[-1]["loss"]
-    if config.progress:        # a bar's saved state is its first; this line is what a saved notebook keeps
+    if config.progress and rank == 0:   # a bar's saved state is its first; this line is what a saved notebook keeps
         print(summary_line(type(model).__name__, step, seconds, last_finite,
                            history.val[-1]["loss"] if val_set is not None and history.val else None))
     return history
@@ -317,13 +386,22 @@ _RESUME_FREE = ("device", "num_threads", "progress", "save_every_steps", "save_e
 """TrainConfig fields a resumed run may change: they do not change what is computed."""
 
 
+def _random_states() -> dict:
+    """This process's random generators (torch, Python, numpy, CUDA) as plain values."""
+    np_state = np.random.get_state()        # plain lists of ints: they also travel between processes
+    return {"torch": torch.get_rng_state().tolist(), "python": _plain(random.getstate()),
+            "numpy": [np_state[0], np_state[1].tolist(), *map(float, np_state[2:])],
+            "cuda": [s.tolist() for s in torch.cuda.get_rng_state_all()] if torch.cuda.is_available() else []}
+
+
 def save_state(path: str | Path, model: nn.Module, optimizer, scheduler, config: TrainConfig,
-               history: History, run: dict) -> None:
+               history: History, run: dict, generators: dict | list | None = None) -> None:
     """Write everything a run needs to continue exactly (see :func:`train`): the weights
     and buffers, Adam's moments, the schedule, the history, where the run is in the data
-    and every random generator's state. Plain tensors and values only; the file is
-    replaced atomically, so a crash while saving leaves the previous state."""
-    np_state = np.random.get_state()
+    and every random generator's state (``generators``: this process's by default, or a
+    list with one per process of a distributed run). Plain tensors and values only; the
+    file is replaced atomically, so a crash while saving leaves the previous state."""
+    generators = _random_states() if generators is None else generators
     state = {"format": STATE_FORMAT, "model": type(model).__name__,
              "model_config": dataclasses.asdict(model.config) if dataclasses.is_dataclass(getattr(model, "config", None)) else {},
              "config": dataclasses.asdict(config),
@@ -331,9 +409,7 @@ def save_state(path: str | Path, model: nn.Module, optimizer, scheduler, config:
              "optimizer": optimizer.state_dict(), "scheduler": scheduler.state_dict(),
              "history": history.to_dict(),
              "run": {k: (v.clone() if isinstance(v, torch.Tensor) else int(v)) for k, v in run.items()},
-             "rng": {"torch": torch.get_rng_state(), "python": _plain(random.getstate()),
-                     "numpy": [np_state[0], torch.from_numpy(np_state[1].copy()), *map(float, np_state[2:])],
-                     "cuda": torch.cuda.get_rng_state_all() if torch.cuda.is_available() else []}}
+             "rng": generators if isinstance(generators, list) else [generators]}
     path = Path(path)
     partial = path.with_name(path.name + ".partial")
     torch.save(state, partial)
@@ -373,13 +449,17 @@ def _restore_state(path, model, optimizer, scheduler, config: TrainConfig, run: 
         scheduler.load_state_dict(state["scheduler"])
         history = History.from_dict(state["history"])
         run.update(state["run"])
-        rng = state["rng"]
-        torch.set_rng_state(rng["torch"])
+        rank, world = distributed()
+        if len(state["rng"]) != world:
+            raise ValueError(f"{path}: saved by {len(state['rng'])} process(es), resumed by {world}; "
+                             "resume with as many")
+        rng = state["rng"][rank]
+        torch.set_rng_state(torch.tensor(rng["torch"], dtype=torch.uint8))
         random.setstate(_tuples(rng["python"]))
-        np.random.set_state((rng["numpy"][0], rng["numpy"][1].numpy(), int(rng["numpy"][2]),
+        np.random.set_state((rng["numpy"][0], np.array(rng["numpy"][1], dtype=np.uint32), int(rng["numpy"][2]),
                              int(rng["numpy"][3]), float(rng["numpy"][4])))
         if rng["cuda"] and torch.cuda.is_available():
-            torch.cuda.set_rng_state_all(rng["cuda"])
+            torch.cuda.set_rng_state_all([torch.tensor(s, dtype=torch.uint8) for s in rng["cuda"]])
     except (KeyError, RuntimeError, TypeError, IndexError) as err:
         raise ValueError(f"{path}: damaged training state ({type(err).__name__}: {err})") from None
     return history
