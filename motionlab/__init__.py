@@ -12,7 +12,7 @@ import importlib
 
 __version__ = "0.1.0"
 
-__all__ = ["asfamc", "bvh", "checks", "claims", "clip", "colab", "data", "download", "experiments", "filters", "metrics", "models",
+__all__ = ["asfamc", "bvh", "checks", "claims", "clip", "cmu_locomotion", "colab", "data", "download", "experiments", "filters", "metrics", "models",
            "pretrained", "representation", "rotations", "skeleton", "synthetic", "training", "viz", "widgets"]
 
 

@@ -94,7 +94,8 @@ def load_bvh(path: str | Path, fps: float | None = None, unit_m: float = CMU_UNI
 
 
 def load(source: str | Path | Iterable[str | Path] = "synthetic", fps: float = 20.0,
-         n_clips: int = 40, duration_s: float = 12.0, seed: int = 0) -> list[Clip]:
+         n_clips: int = 40, duration_s: float = 12.0, seed: int = 0,
+         cache: str | Path | None | bool = True) -> list[Clip]:
     """Load clips: ``"synthetic"``, a folder of motion capture, one file, or a list of files.
 
     * ``"synthetic"`` generates ``n_clips`` clips of ``duration_s`` seconds with
@@ -108,6 +109,12 @@ def load(source: str | Path | Iterable[str | Path] = "synthetic", fps: float = 2
     letter case (``.BVH``). Either way the result is world positions, and everything after
     this goes through the same code. Bad arguments and malformed files raise ``ValueError``
     naming the argument or the file (and line).
+
+    Files are read once per frame rate: the clips are kept in a cache (``cache``: a folder;
+    ``True``, the default, is :data:`CLIP_CACHE`; ``False`` or ``None`` reads every file).
+    An entry is used only while its file (and, for ``.amc``, the subject's ``.asf``) has
+    the same size and SHA-256, and :data:`LOADER_VERSION` is unchanged. A load of many
+    files shows a progress bar.
     """
     fps = checks.rate(fps, "fps")
     if isinstance(source, str) and source == "synthetic":
@@ -133,7 +140,79 @@ def load(source: str | Path | Iterable[str | Path] = "synthetic", fps: float = 2
     twice = sorted({stem for stem in stems if stems.count(stem) > 1})
     if twice:
         raise ValueError(f"source: trials in two formats ({', '.join(twice)}): keep one format per trial")
-    return [_load_file(f, fps) for f in files]
+    if cache is None or cache is False:
+        return [_load_file(f, fps) for f in _progress(files)]
+    return _load_cached(files, fps, CLIP_CACHE if cache is True else Path(cache))
+
+
+LOADER_VERSION = 1
+"""Bumped whenever reading, forward kinematics or resampling changes what a file loads as;
+it invalidates every cached clip (:func:`load`)."""
+
+CLIP_CACHE = Path(__file__).resolve().parents[1] / "data" / "cache" / "clips"
+"""The default cache of loaded clips, in the repository's ignored ``data/cache``. Not beside
+the data: motion capture folders are often shared or read-only."""
+
+
+def _progress(files: list[Path]):
+    from tqdm.auto import tqdm
+    return tqdm(files, desc="reading motion files", unit="file", disable=len(files) < 20, leave=False)
+
+
+def _file_key(path: Path) -> str:
+    """What identifies a file's loaded clip: the loader version, and the size and SHA-256
+    of the file (and of its subject's ``.asf`` for an ``.amc``). Hashing reads a file far
+    faster than parsing it."""
+    from .download import sha256_of
+    parts = [path] + ([asfamc.skeleton_path(path)] if path.suffix.lower() == ".amc" else [])
+    stamps = [f"{Path(part).name}:{Path(part).stat().st_size}:{sha256_of(part)}" if Path(part).is_file()
+              else f"{Path(part).name}:missing" for part in parts]
+    return f"v{LOADER_VERSION}|" + "|".join(stamps)
+
+
+def _cache_file(files: list[Path], fps: float, folder: Path) -> Path:
+    import hashlib
+    where = sorted({str(f.resolve().parent) for f in files})
+    digest = hashlib.sha256("\n".join(where).encode()).hexdigest()[:16]
+    return folder / f"{Path(where[0]).name}-{digest}-{fps:g}fps.npz"
+
+
+def _load_cached(files: list[Path], fps: float, folder: Path) -> list[Clip]:
+    """:func:`load` of ``files`` through the cache file for their folder(s) and ``fps``."""
+    path = _cache_file(files, fps, folder)
+    cached: dict[str, tuple[str, np.ndarray]] = {}
+    if path.exists():
+        try:
+            with np.load(path, allow_pickle=False) as saved:
+                names, saved_keys = list(saved["names"]), list(saved["keys"])
+                ends = np.cumsum(saved["lengths"])
+                positions = saved["positions"]
+                if len(names) == len(saved_keys) == len(ends) and (not len(ends) or ends[-1] == len(positions)) \
+                        and positions.ndim == 3 and positions.shape[1:] == (LOCOMOTION.n_joints, 3) \
+                        and np.isfinite(positions).all():
+                    for name, key, start, end in zip(names, saved_keys, np.concatenate([[0], ends[:-1]]), ends):
+                        cached[str(name)] = (str(key), positions[start:end])
+        except (OSError, ValueError, KeyError):         # a damaged cache is rebuilt, never trusted
+            cached = {}
+    clips, keys, changed = [], [], False
+    for f in _progress(files):
+        key = _file_key(f)
+        keys.append(key)
+        hit = cached.get(str(f.resolve()))
+        if hit is not None and hit[0] == key and len(hit[1]) >= 2:
+            clips.append(Clip(f.stem, np.array(hit[1], dtype=np.float64), fps, str(f)))
+        else:
+            clips.append(_load_file(f, fps))
+            changed = True
+    if changed or len(cached) != len(files):
+        folder.mkdir(parents=True, exist_ok=True)
+        partial = path.with_name(path.name + ".partial.npz")
+        np.savez(partial, names=np.array([str(f.resolve()) for f in files]),
+                 keys=np.array(keys),
+                 lengths=np.array([c.n_frames for c in clips]),
+                 positions=np.concatenate([c.positions for c in clips]).astype(np.float64))
+        partial.replace(path)
+    return clips
 
 
 def _load_file(path: Path, fps: float) -> Clip:

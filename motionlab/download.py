@@ -94,6 +94,14 @@ DEFAULT_TRIALS = (
 ``09_10`` is left out on purpose: its first AMC frames are all zeros, a flaw in the source."""
 
 
+def trial_sets() -> dict[str, tuple[str, ...]]:
+    """The named lists ``--set`` chooses from: ``"course"`` (:data:`DEFAULT_TRIALS`, 55
+    curated trials) and ``"locomotion-full"`` (the 685 locomotion trials of CMU's index,
+    :data:`motionlab.cmu_locomotion.LOCOMOTION_FULL`, with their descriptions there)."""
+    from .cmu_locomotion import LOCOMOTION_FULL
+    return {"course": DEFAULT_TRIALS, "locomotion-full": tuple(trial for trial, _ in LOCOMOTION_FULL)}
+
+
 class DownloadError(ValueError):
     """A file could not be fetched: no network, an HTTP error, a broken-off transfer, or
     the server sent something that is not a valid ASF/AMC file."""
@@ -578,16 +586,22 @@ def main(argv: list[str] | None = None) -> int:
         description="Download CMU motion capture trials (ASF/AMC) from mocap.cs.cmu.edu.")
     parser.add_argument("trials", nargs="*", metavar="TRIAL", help="trials like 16_15 (default: "
                         f"the {len(DEFAULT_TRIALS)} locomotion trials of the course)")
+    parser.add_argument("--set", dest="trial_set", choices=sorted(trial_sets()), default=None,
+                        help="a named list instead: 'course' (the default 55) or 'locomotion-full' "
+                             "(685 locomotion trials of CMU's index, see motionlab/cmu_locomotion.py)")
     parser.add_argument("--dest", default=DEFAULT_DEST,
                         help=f"folder for the files (default: {DEFAULT_DEST})")
     parser.add_argument("--base-url", default=DEFAULT_BASE,
                         help=f"the site or a mirror (default: {DEFAULT_BASE})")
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
     args = parser.parse_args(argv)
+    if args.trial_set and args.trials:
+        parser.error("give trials or --set, not both")
+    trials = trial_sets()[args.trial_set] if args.trial_set else args.trials or None
     try:
         with warnings.catch_warnings():
             warnings.showwarning = _print_warning          # "warning: ...", no source line
-            paths = download_cmu(args.trials or None, args.dest, args.base_url, progress=not args.quiet)
+            paths = download_cmu(trials, args.dest, args.base_url, progress=not args.quiet)
     except ValueError as err:
         print(f"error: {err}", file=sys.stderr)
         return 1

@@ -365,7 +365,7 @@ class Plan:
                                     schedule=self.schedule, warmup_steps=self.warmup_steps,
                                     grad_clip=self.grad_clip, max_steps=self.max_steps,
                                     seed=self.seed, device=self.device, save_every_steps=self.save_every_steps,
-                                    save_every_s=self.save_every_s)
+                                    save_every_s=self.save_every_s, estimate=self.paper)
 
     def describe(self) -> str:
         lines = []

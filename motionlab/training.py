@@ -52,6 +52,8 @@ class TrainConfig:
         progress: show a progress bar.
         save_every_steps, save_every_s: with a ``state_file`` (see :func:`train`), save the
             run's state every this many steps and/or seconds (``None``: only at the end).
+        estimate: before training, time a few steps on a copy of the model
+            (:func:`seconds_per_step`) and print the expected time of the run.
     """
 
     epochs: int = 20
@@ -69,6 +71,7 @@ class TrainConfig:
     progress: bool = True
     save_every_steps: int | None = None
     save_every_s: float | None = None
+    estimate: bool = False
 
     def __post_init__(self):
         if self.epochs < 1 or self.batch_size < 1 or self.lr <= 0:
@@ -296,6 +299,11 @@ def train(model: nn.Module, data, config: TrainConfig | None = None,
         history = _restore_state(state_file, model, optimizer, scheduler, config, run)
         start_step, start_epoch = run["start_step"], run["start_epoch"]
         generator.set_state(run["epoch_generator"])
+    if config.estimate and rank == 0 and run["step"] < total:
+        batch = next(iter(torch.utils.data.DataLoader(train_set, batch_size=config.batch_size // world)))
+        seconds = seconds_per_step(model, batch.to(device), config)
+        print(f"expected: {seconds:.3g} s per step on {device}, {_duration((total - run['step']) * seconds)} "
+              f"for {total - run['step']} steps")
     bar = tqdm(total=total, initial=run["step"], disable=not config.progress or rank > 0,
                desc=type(model).__name__, unit="step")
     began = last_save = time.perf_counter()
@@ -381,8 +389,43 @@ def train(model: nn.Module, data, config: TrainConfig | None = None,
     return history
 
 
+def seconds_per_step(model: nn.Module, batch: torch.Tensor, config: TrainConfig | None = None,
+                     repeats: int = 3) -> float:
+    """Seconds one training step of ``model`` takes on ``batch`` (loss, backward, clipping,
+    Adam), the median of ``repeats`` after one warm-up step, measured on a copy: the model,
+    its optimiser and every random generator are left as they were."""
+    import copy
+    config = config or TrainConfig()
+    saved = _random_states()
+    twin = copy.deepcopy(model).train()
+    optimizer = torch.optim.Adam([p for p in twin.parameters() if p.requires_grad], lr=config.lr)
+    times = []
+    for k in range(repeats + 1):
+        began = time.perf_counter()
+        loss = twin.loss(batch)["loss"]
+        optimizer.zero_grad(set_to_none=True)
+        loss.backward()
+        if config.grad_clip is not None:
+            nn.utils.clip_grad_norm_(twin.parameters(), config.grad_clip)
+        optimizer.step()
+        if batch.is_cuda:
+            torch.cuda.synchronize()
+        if k:
+            times.append(time.perf_counter() - began)
+    _set_random_states(saved)
+    return float(np.median(times))
+
+
+def _duration(seconds: float) -> str:
+    if seconds < 120:
+        return f"about {seconds:.0f} s"
+    if seconds < 2 * 3600:
+        return f"about {seconds / 60:.0f} min"
+    return f"about {seconds / 3600:.1f} h"
+
+
 STATE_FORMAT = "motionlab-train-state-1"
-_RESUME_FREE = ("device", "num_threads", "progress", "save_every_steps", "save_every_s")
+_RESUME_FREE = ("device", "num_threads", "progress", "save_every_steps", "save_every_s", "estimate")
 """TrainConfig fields a resumed run may change: they do not change what is computed."""
 
 
@@ -414,6 +457,16 @@ def save_state(path: str | Path, model: nn.Module, optimizer, scheduler, config:
     partial = path.with_name(path.name + ".partial")
     torch.save(state, partial)
     os.replace(partial, path)
+
+
+def _set_random_states(rng: dict) -> None:
+    """The inverse of :func:`_random_states`."""
+    torch.set_rng_state(torch.tensor(rng["torch"], dtype=torch.uint8))
+    random.setstate(_tuples(rng["python"]))
+    np.random.set_state((rng["numpy"][0], np.array(rng["numpy"][1], dtype=np.uint32), int(rng["numpy"][2]),
+                         int(rng["numpy"][3]), float(rng["numpy"][4])))
+    if rng["cuda"] and torch.cuda.is_available():
+        torch.cuda.set_rng_state_all([torch.tensor(s, dtype=torch.uint8) for s in rng["cuda"]])
 
 
 def _plain(value):
@@ -453,13 +506,7 @@ def _restore_state(path, model, optimizer, scheduler, config: TrainConfig, run: 
         if len(state["rng"]) != world:
             raise ValueError(f"{path}: saved by {len(state['rng'])} process(es), resumed by {world}; "
                              "resume with as many")
-        rng = state["rng"][rank]
-        torch.set_rng_state(torch.tensor(rng["torch"], dtype=torch.uint8))
-        random.setstate(_tuples(rng["python"]))
-        np.random.set_state((rng["numpy"][0], np.array(rng["numpy"][1], dtype=np.uint32), int(rng["numpy"][2]),
-                             int(rng["numpy"][3]), float(rng["numpy"][4])))
-        if rng["cuda"] and torch.cuda.is_available():
-            torch.cuda.set_rng_state_all([torch.tensor(s, dtype=torch.uint8) for s in rng["cuda"]])
+        _set_random_states(state["rng"][rank])
     except (KeyError, RuntimeError, TypeError, IndexError) as err:
         raise ValueError(f"{path}: damaged training state ({type(err).__name__}: {err})") from None
     return history

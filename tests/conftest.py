@@ -84,3 +84,12 @@ def pytest_collection_modifyitems(items):
     for item in items:
         if isinstance(item, IPyNbCell):
             item.output_timeout = NBVAL_OUTPUT_TIMEOUT_S
+
+
+@pytest.fixture(autouse=True, scope="session")
+def _clip_cache_in_a_temporary_folder(tmp_path_factory):
+    """data.load caches what it reads (data/cache/clips by default); the tests' many small
+    temporary folders would pile up there, so the suite keeps its cache to itself."""
+    from motionlab import data
+    data.CLIP_CACHE = tmp_path_factory.mktemp("clip_cache")
+    yield

@@ -462,3 +462,19 @@ def test_command_line(serve, site, tmp_path, capsys):
     assert "warning: " + f"{dest / '16_15.amc'}: its size changed" in capsys.readouterr().err
     assert download.main(["16_99", "--dest", str(dest), "--base-url", server.url, "--quiet"]) == 1
     assert "error: trial 16_99: " + f"{server.url}/subjects/16/16_99.amc: not found" in capsys.readouterr().err
+
+
+def test_the_full_locomotion_set_is_a_documented_list_of_distinct_trials(monkeypatch):
+    from motionlab.cmu_locomotion import LOCOMOTION_FULL
+    names = [trial for trial, _ in LOCOMOTION_FULL]
+    assert len(names) == len(set(names)) == 685
+    assert all(download.trial_name(t) == t and description.strip() for t, description in LOCOMOTION_FULL)
+    assert names == sorted(names, key=lambda t: tuple(map(int, t.split("_"))))
+    sets = download.trial_sets()
+    assert sets["course"] == download.DEFAULT_TRIALS and sets["locomotion-full"] == tuple(names)
+    asked = []
+    monkeypatch.setattr(download, "download_cmu", lambda trials, *a, **k: asked.append(trials) or [])
+    assert download.main(["--set", "locomotion-full", "--quiet"]) == 0
+    assert asked == [tuple(names)]
+    with pytest.raises(SystemExit):
+        download.main(["16_15", "--set", "course"])

@@ -1,4 +1,5 @@
 """The shared training loop, checkpoints and the command line."""
+import re
 from dataclasses import dataclass
 
 import numpy as np
@@ -196,3 +197,17 @@ def test_shipped_moglow_checkpoints_fit_the_default_config():
         checkpoint = training.load_checkpoint(folder / f"moglow_{name}.pt", config=config)
         assert checkpoint.description["source"] == "synthetic" and checkpoint.description["window_frames"] == 40
         assert len(checkpoint.history.train) == 1760
+
+
+def test_the_step_time_estimate_leaves_the_model_and_generators_alone(capsys):
+    model = ConvAutoencoder(ConvAEConfig(window=8, filters=8, width=3))
+    before = {k: v.clone() for k, v in model.state_dict().items()}
+    torch.manual_seed(3)
+    expected_draw = torch.rand(3)
+    torch.manual_seed(3)
+    seconds = training.seconds_per_step(model, torch.randn(4, 8, 66, generator=torch.Generator().manual_seed(0)))
+    assert 0 < seconds < 10
+    assert torch.equal(torch.rand(3), expected_draw)                      # the generator as it was
+    assert all(torch.equal(v, before[k]) for k, v in model.state_dict().items())
+    training.train(model, torch.randn(16, 8, 66), training.TrainConfig(epochs=1, batch_size=4, estimate=True))
+    assert re.search(r"expected: [\d.e+-]+ s per step on cpu, about \d+ s for 4 steps", capsys.readouterr().out)
