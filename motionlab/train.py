@@ -248,6 +248,9 @@ def build_parser() -> argparse.ArgumentParser:
                         help="keep the run's state in OUT.state every STEPS steps (and at the end)")
     parser.add_argument("--save-every-minutes", type=_positive(24 * 60), default=None, metavar="MINUTES",
                         help="... and/or every MINUTES of training")
+    parser.add_argument("--precision", choices=sorted(training.PRECISIONS), default="fp32",
+                        help="fp32, or mixed precision: bf16 (CPUs with bfloat16, recent GPUs) or fp16 "
+                             "(GPUs; with a gradient scaler); flows keep their log-determinants in fp32")
     parser.add_argument("--resume", action="store_true",
                         help="continue from OUT.state where an earlier run stopped (same options); "
                              "the result equals a run that never stopped")
@@ -351,6 +354,7 @@ class Plan:
     paper: bool = False
     save_every_steps: int | None = None
     save_every_s: float | None = None
+    precision: str = "fp32"
     from_paper: list[str] = dataclasses.field(default_factory=list)
     choices: list[str] = dataclasses.field(default_factory=list)
     given: list[str] = dataclasses.field(default_factory=list)
@@ -365,7 +369,8 @@ class Plan:
                                     schedule=self.schedule, warmup_steps=self.warmup_steps,
                                     grad_clip=self.grad_clip, max_steps=self.max_steps,
                                     seed=self.seed, device=self.device, save_every_steps=self.save_every_steps,
-                                    save_every_s=self.save_every_s, estimate=self.paper)
+                                    save_every_s=self.save_every_s, estimate=self.paper,
+                                    precision=self.precision)
 
     def describe(self) -> str:
         lines = []
@@ -423,7 +428,7 @@ def training_plan(args: argparse.Namespace) -> Plan:
     if given_stages:
         shown_given.append(f"--stage-epochs {_show(given_stages)}")
     return Plan(**values, stage_epochs=stage_epochs, seed=args.seed, device=args.device, paper=args.paper,
-                save_every_steps=args.save_every,
+                save_every_steps=args.save_every, precision=args.precision,
                 save_every_s=None if args.save_every_minutes is None else 60 * args.save_every_minutes,
                 from_paper=from_paper, choices=choices, given=shown_given)
 

@@ -16,6 +16,7 @@ the moment the loss stops being a finite number.
 """
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import math
 import os
@@ -31,6 +32,9 @@ from torch import nn
 from tqdm.auto import tqdm
 
 CHECKPOINT_FORMAT = "motionlab-checkpoint-1"
+
+PRECISIONS = {"fp32": None, "bf16": torch.bfloat16, "fp16": torch.float16}
+"""``TrainConfig.precision``: the dtype autocast computes in (``None``: float32 throughout)."""
 
 
 @dataclass
@@ -54,6 +58,10 @@ class TrainConfig:
             run's state every this many steps and/or seconds (``None``: only at the end).
         estimate: before training, time a few steps on a copy of the model
             (:func:`seconds_per_step`) and print the expected time of the run.
+        precision: ``"fp32"``, or mixed precision: ``"bf16"`` or ``"fp16"`` (``torch.autocast``
+            around the loss; fp16 with a gradient scaler). Weights, Adam and the logged loss
+            stay float32, and the flows keep their transforms and log-determinants in
+            float32 (:func:`motionlab.models.flows.full_precision`).
     """
 
     epochs: int = 20
@@ -72,6 +80,7 @@ class TrainConfig:
     save_every_steps: int | None = None
     save_every_s: float | None = None
     estimate: bool = False
+    precision: str = "fp32"
 
     def __post_init__(self):
         if self.epochs < 1 or self.batch_size < 1 or self.lr <= 0:
@@ -79,6 +88,8 @@ class TrainConfig:
                              f"{self.batch_size}, {self.lr}")
         if self.schedule not in ("cosine", "constant"):
             raise ValueError(f"schedule: expected 'cosine' or 'constant', got {self.schedule!r}")
+        if self.precision not in PRECISIONS:
+            raise ValueError(f"precision: expected one of {', '.join(PRECISIONS)}, got {self.precision!r}")
         if (self.save_every_steps is not None and self.save_every_steps < 1) or \
                 (self.save_every_s is not None and not self.save_every_s > 0):
             raise ValueError(f"save_every_steps and save_every_s must be positive, got "
@@ -291,12 +302,20 @@ def train(model: nn.Module, data, config: TrainConfig | None = None,
         return config.min_lr_ratio + (1 - config.min_lr_ratio) * 0.5 * (1 + math.cos(math.pi * progress))
 
     scheduler = torch.optim.lr_scheduler.LambdaLR(optimizer, lr_factor)
+    low_precision = PRECISIONS[config.precision]
+    scaler = torch.amp.GradScaler(device.type, enabled=config.precision == "fp16")   # fp16 gradients underflow
+
+    def mixed_precision():
+        if low_precision is None:
+            return contextlib.nullcontext()
+        return torch.autocast(device.type, dtype=low_precision)
+
     # where the run is: steps done, the epoch and the batches done in it, and the batch
     # generator's state when that epoch began (its shuffle is drawn from it)
     run = {"step": 0, "epoch": start_epoch, "position": 0, "epoch_generator": generator.get_state(),
            "start_step": start_step, "start_epoch": start_epoch}
     if resume and Path(state_file).exists():
-        history = _restore_state(state_file, model, optimizer, scheduler, config, run)
+        history = _restore_state(state_file, model, optimizer, scheduler, config, run, scaler)
         start_step, start_epoch = run["start_step"], run["start_epoch"]
         generator.set_state(run["epoch_generator"])
     if config.estimate and rank == 0 and run["step"] < total:
@@ -319,7 +338,7 @@ def train(model: nn.Module, data, config: TrainConfig | None = None,
             torch.distributed.all_gather_object(everyone, generators)
             generators = everyone
         if rank == 0:
-            save_state(state_file, model, optimizer, scheduler, config, history, run, generators)
+            save_state(state_file, model, optimizer, scheduler, config, history, run, generators, scaler)
 
     try:
         for epoch in range(run["epoch"], start_epoch + config.epochs):
@@ -333,8 +352,9 @@ def train(model: nn.Module, data, config: TrainConfig | None = None,
             for _ in range(run["position"]):            # resuming mid-epoch: the same shuffle, skipped
                 next(batches)
             for batch in batches:
-                terms = compute(batch.to(device))
-                loss = terms["loss"]
+                with mixed_precision():
+                    terms = compute(batch.to(device))
+                loss = terms["loss"].float()
                 logged = {key: value.detach().float().reshape(()) for key, value in terms.items()}
                 if world > 1:                           # the global batch's mean, the same in every process
                     values = torch.stack(list(logged.values()))
@@ -347,10 +367,12 @@ def train(model: nn.Module, data, config: TrainConfig | None = None,
                         f"(lr={config.lr:g}), gradient clipping (grad_clip={config.grad_clip}), or "
                         "check the data for NaNs.")
                 optimizer.zero_grad(set_to_none=True)
-                loss.backward()
+                scaler.scale(loss).backward()
                 if config.grad_clip is not None:
+                    scaler.unscale_(optimizer)          # clip the true gradients (a no-op without fp16)
                     nn.utils.clip_grad_norm_(model.parameters(), config.grad_clip)
-                optimizer.step()
+                scaler.step(optimizer)                  # fp16: skips a step whose gradients overflowed
+                scaler.update()
                 scheduler.step()
                 last_finite = float(logged["loss"])
                 row = {"step": start_step + step, "epoch": epoch, "lr": optimizer.param_groups[0]["lr"]}
@@ -438,7 +460,7 @@ def _random_states() -> dict:
 
 
 def save_state(path: str | Path, model: nn.Module, optimizer, scheduler, config: TrainConfig,
-               history: History, run: dict, generators: dict | list | None = None) -> None:
+               history: History, run: dict, generators: dict | list | None = None, scaler=None) -> None:
     """Write everything a run needs to continue exactly (see :func:`train`): the weights
     and buffers, Adam's moments, the schedule, the history, where the run is in the data
     and every random generator's state (``generators``: this process's by default, or a
@@ -450,6 +472,7 @@ def save_state(path: str | Path, model: nn.Module, optimizer, scheduler, config:
              "config": dataclasses.asdict(config),
              "weights": {k: v.detach().cpu() for k, v in model.state_dict().items()},
              "optimizer": optimizer.state_dict(), "scheduler": scheduler.state_dict(),
+             "scaler": scaler.state_dict() if scaler is not None and scaler.is_enabled() else {},
              "history": history.to_dict(),
              "run": {k: (v.clone() if isinstance(v, torch.Tensor) else int(v)) for k, v in run.items()},
              "rng": generators if isinstance(generators, list) else [generators]}
@@ -478,7 +501,7 @@ def _tuples(value):
     return tuple(_tuples(v) for v in value) if isinstance(value, list) else value
 
 
-def _restore_state(path, model, optimizer, scheduler, config: TrainConfig, run: dict) -> History:
+def _restore_state(path, model, optimizer, scheduler, config: TrainConfig, run: dict, scaler=None) -> History:
     """Load :func:`save_state`'s file into the run; ``ValueError`` naming the file when it is
     not such a file or was saved by a different model or config."""
     try:
@@ -500,6 +523,8 @@ def _restore_state(path, model, optimizer, scheduler, config: TrainConfig, run: 
         model.load_state_dict(state["weights"])
         optimizer.load_state_dict(state["optimizer"])
         scheduler.load_state_dict(state["scheduler"])
+        if scaler is not None and scaler.is_enabled() and state.get("scaler"):
+            scaler.load_state_dict(state["scaler"])
         history = History.from_dict(state["history"])
         run.update(state["run"])
         rank, world = distributed()

@@ -191,7 +191,8 @@ class InvertibleLinear(InvertibleModule):
 
     def forward(self, x, cond=None):
         _check_sequence("x", x, self.channels)
-        z = x @ self.weight().T
+        with full_precision(x):
+            z = x @ self.weight().to(x.dtype).T
         logdet = (x.shape[1] * self.log_diag.sum()).expand(x.shape[0])
         return z, logdet
 
@@ -204,6 +205,13 @@ class InvertibleLinear(InvertibleModule):
         columns = torch.linalg.solve_triangular(lower, columns, upper=False, unitriangular=True)
         columns = torch.linalg.solve_triangular(upper, columns, upper=True)
         return columns.T.reshape(z.shape).to(z.dtype)
+
+
+def full_precision(x: torch.Tensor):
+    """A block where autocast (mixed-precision training, ``TrainConfig.precision``) is off:
+    the flow's own arithmetic (the 1x1 mixing, the affine transform, every log-determinant
+    and the prior) stays float32; only the coupling networks ``A_n`` run in low precision."""
+    return torch.autocast(x.device.type, enabled=False)
 
 
 # ----------------------------------------------------------------------------------------
@@ -307,7 +315,8 @@ class AffineCoupling(InvertibleModule):
         self.network = make_network(self.n_lo, cond_channels, 2 * self.n_hi)
 
     def _shift_and_log_scale(self, lo: torch.Tensor, cond: torch.Tensor | None):
-        h = self.network(lo, cond)
+        # under mixed precision A_n may compute in bfloat16; the transform and its log-det do not
+        h = self.network(lo, cond).to(lo.dtype)
         if h.shape != lo.shape[:2] + (2 * self.n_hi,):
             raise ValueError(f"make_network: the network returned {tuple(h.shape)}, expected "
                              f"{tuple(lo.shape[:2]) + (2 * self.n_hi,)}")

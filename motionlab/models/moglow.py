@@ -41,7 +41,7 @@ the pluggable part (:class:`LSTMCouplingNet` here; the Markovian variant of §4.
 from __future__ import annotations
 
 import math
-from contextlib import contextmanager
+from contextlib import contextmanager, nullcontext
 from dataclasses import dataclass, replace
 from functools import partial
 
@@ -137,7 +137,10 @@ class LSTMCouplingNet(nn.Module):
 
     def forward(self, lo: torch.Tensor, cond: torch.Tensor | None = None) -> torch.Tensor:
         inputs = lo if cond is None else torch.cat([lo, cond], dim=-1)
-        hidden, state = self.lstm(inputs, self.state if self.carrying else None)
+        # mixed precision: oneDNN has no bfloat16 LSTM for the CPU, so there it runs in float32
+        with torch.autocast("cpu", enabled=False) if inputs.device.type == "cpu" else nullcontext():
+            hidden, state = self.lstm(inputs.to(self.lstm.weight_ih_l0.dtype) if inputs.device.type == "cpu" else inputs,
+                                      self.state if self.carrying else None)
         if self.carrying:
             self.state = state
         return self.output(hidden)
