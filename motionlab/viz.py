@@ -18,6 +18,7 @@ from typing import Sequence
 
 import matplotlib
 import matplotlib.pyplot as plt
+import matplotlib.ticker
 import numpy as np
 from matplotlib import animation
 
@@ -76,6 +77,8 @@ def _style_3d(ax, title: str | None) -> None:
     ax.set_xlabel("z (m)")
     ax.set_ylabel("x (m)")
     ax.set_zlabel("y (m)")
+    for axis in (ax.xaxis, ax.yaxis, ax.zaxis):        # few ticks: at the front corner they would collide
+        axis.set_major_locator(matplotlib.ticker.MaxNLocator(4))
     ax.view_init(elev=12, azim=-35)
     if title:
         ax.set_title(title)
@@ -124,8 +127,10 @@ def plot_trajectory(positions: np.ndarray, fps: float, ax=None, arrow_every_s: f
     ax.plot(z[:1], x[:1], "o", color=color)
     step = max(1, int(round(arrow_every_s * fps)))
     length = 0.1 * max(np.ptp(z), np.ptp(x), 1.0)
-    ax.quiver(z[::step], x[::step], length * np.cos(heading[::step]), length * np.sin(heading[::step]),
-              color=color, angles="xy", scale_units="xy", scale=1, width=0.005)
+    u, v = length * np.cos(heading[::step]), length * np.sin(heading[::step])
+    ax.quiver(z[::step], x[::step], u, v, color=color, angles="xy", scale_units="xy", scale=1, width=0.005)
+    ax.update_datalim(np.c_[z[::step] + u, x[::step] + v])     # the arrow tips inside the axes too
+    ax.autoscale_view()
     ax.set_xlabel("z (m)")
     ax.set_ylabel("x (m)")
     ax.set_aspect("equal", adjustable="datalim")
@@ -184,7 +189,7 @@ def animate(clips: np.ndarray | Sequence[np.ndarray], fps: float, titles: Sequen
         trail = ax.plot([], [], [], color="tab:green", lw=1)[0]
         panels.append({"ax": ax, "clip": clip, "lines": lines, "trail": trail, "grid": [],
                        "height": height})
-    fig.tight_layout()
+    fig.tight_layout(rect=(0.02, 0.04, 0.95, 0.93))       # room for the tick labels and a time label
 
     def draw(frame: int):
         artists = []
@@ -201,6 +206,8 @@ def animate(clips: np.ndarray | Sequence[np.ndarray], fps: float, titles: Sequen
             for (parent, child), line in zip(skeleton.bones, p["lines"]):
                 line.set_data_3d(*_plot_xyz(pose[[parent, child]]))
             path = clip[: t + 1, 0] * np.array([1.0, 0.0, 1.0])
+            if follow:                                 # the trail ends at the edge of the floor shown
+                path[np.abs(path[:, [0, 2]] - pose[0, [0, 2]]).max(axis=1) > radius] = np.nan
             p["trail"].set_data_3d(*_plot_xyz(path))
             artists += p["lines"] + [p["trail"]]
         return artists
@@ -228,7 +235,7 @@ def stills(anim: animation.FuncAnimation, n: int = 4, dpi: int = 50) -> np.ndarr
     fig.set_dpi(checks.positive(dpi, "dpi"))
     canvas = FigureCanvasAgg(fig)                      # animate() closed its figure: draw off-screen
     picks = [frames[round(k)] for k in np.linspace(0, len(frames) - 1, min(n, len(frames)))]
-    label = fig.text(0.01, 0.98, "", va="top", fontsize=9)
+    label = fig.text(0.005, 0.995, "", va="top", fontsize=14, weight="bold")   # readable at the stills' dpi
     rows = []
     for frame in picks:
         anim._func(frame)
@@ -446,7 +453,9 @@ def plot_motion(features: np.ndarray, fps: float, fig=None, title: str | None = 
     fps = checks.rate(fps, "fps")
     fig = fig or plt.figure(figsize=(10, 2.6))
     grid = fig.add_gridspec(1, 4)
-    plot_filmstrip(features, ax=fig.add_subplot(grid[0, :3]), n=n, title=title)
-    plot_trajectory(to_positions(features, fps), fps, ax=fig.add_subplot(grid[0, 3]))
+    side = "side view in the body's own frame (facing right); where it goes: the path"
+    plot_filmstrip(features, ax=fig.add_subplot(grid[0, :3]), n=n, title=f"{title}\n{side}" if title else side)
+    plot_trajectory(to_positions(features, fps), fps, ax=fig.add_subplot(grid[0, 3])).set_title("path from above",
+                                                                                              fontsize=8)
     fig.tight_layout()
     return fig
