@@ -8,8 +8,6 @@ Modules load on first use, so ``import motionlab`` is instant and ``motionlab.da
 """
 from __future__ import annotations
 
-import importlib
-
 __version__ = "0.1.0"
 
 __all__ = ["asfamc", "bvh", "checks", "claims", "clip", "cmu_locomotion", "colab", "data", "download", "experiments", "filters", "metrics", "models",
@@ -17,11 +15,55 @@ __all__ = ["asfamc", "bvh", "checks", "claims", "clip", "cmu_locomotion", "colab
 
 
 def __getattr__(name: str):
-    if name in __all__:        # only the fixed names above: never a name taken from a file or input
-        module = importlib.import_module(f".{name}", __name__)
-        globals()[name] = module
-        return module
-    raise AttributeError(f"module 'motionlab' has no attribute {name!r}")
+    # One import statement per module of __all__: nothing is ever imported by a computed or
+    # given name, so no input can make the package load anything but its own modules.
+    match name:
+        case "asfamc":
+            import motionlab.asfamc as module
+        case "bvh":
+            import motionlab.bvh as module
+        case "checks":
+            import motionlab.checks as module
+        case "claims":
+            import motionlab.claims as module
+        case "clip":
+            import motionlab.clip as module
+        case "cmu_locomotion":
+            import motionlab.cmu_locomotion as module
+        case "colab":
+            import motionlab.colab as module
+        case "data":
+            import motionlab.data as module
+        case "download":
+            import motionlab.download as module
+        case "experiments":
+            import motionlab.experiments as module
+        case "filters":
+            import motionlab.filters as module
+        case "metrics":
+            import motionlab.metrics as module
+        case "models":
+            import motionlab.models as module
+        case "pretrained":
+            import motionlab.pretrained as module
+        case "representation":
+            import motionlab.representation as module
+        case "rotations":
+            import motionlab.rotations as module
+        case "skeleton":
+            import motionlab.skeleton as module
+        case "synthetic":
+            import motionlab.synthetic as module
+        case "training":
+            import motionlab.training as module
+        case "viz":
+            import motionlab.viz as module
+        case "widgets":
+            import motionlab.widgets as module
+        case _:
+            raise AttributeError(f"module 'motionlab' has no attribute {name!r}")
+    globals()[name] = module
+    return module
 
 
 def __dir__():
