@@ -290,8 +290,7 @@ def train(model: nn.Module, data, config: TrainConfig | None = None,
     total = config.epochs * len(loader)
     if config.max_steps is not None:
         total = min(total, config.max_steps)
-    optimizer = torch.optim.Adam([p for p in model.parameters() if p.requires_grad],
-                                 lr=config.lr, weight_decay=config.weight_decay)
+    optimizer = adam(model.parameters(), config.lr, config.weight_decay)
 
     def lr_factor(step: int) -> float:
         if step < config.warmup_steps:
@@ -411,6 +410,20 @@ def train(model: nn.Module, data, config: TrainConfig | None = None,
     return history
 
 
+def adam(parameters, lr: float, weight_decay: float = 0.0) -> torch.optim.Adam:
+    """Adam over the ``parameters`` that require gradients, with PyTorch's fused kernel (one
+    pass over all weights per step instead of one small operation per tensor) where this
+    PyTorch has one for their device, the ordinary one otherwise: the same update either way.
+    Measured on 2 CPU cores at laptop size, batch 32 (``benchmarks/training_speed.py``): the
+    VAE makes 1.55x as many steps per second, Glow, MoGlow and the VAE-LSTM about 1.1x; the
+    other models' steps change by less than the run-to-run noise."""
+    parameters = [p for p in parameters if p.requires_grad]
+    try:
+        return torch.optim.Adam(parameters, lr=lr, weight_decay=weight_decay, fused=True)
+    except (RuntimeError, ValueError):             # no fused kernel in this PyTorch for this device
+        return torch.optim.Adam(parameters, lr=lr, weight_decay=weight_decay)
+
+
 def seconds_per_step(model: nn.Module, batch: torch.Tensor, config: TrainConfig | None = None,
                      repeats: int = 3) -> float:
     """Seconds one training step of ``model`` takes on ``batch`` (loss, backward, clipping,
@@ -420,7 +433,7 @@ def seconds_per_step(model: nn.Module, batch: torch.Tensor, config: TrainConfig 
     config = config or TrainConfig()
     saved = _random_states()
     twin = copy.deepcopy(model).train()
-    optimizer = torch.optim.Adam([p for p in twin.parameters() if p.requires_grad], lr=config.lr)
+    optimizer = adam(twin.parameters(), config.lr, config.weight_decay)
     times = []
     for k in range(repeats + 1):
         began = time.perf_counter()
