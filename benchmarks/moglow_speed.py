@@ -39,8 +39,10 @@ from motionlab.models.moglow import MoGlow, MoGlowConfig
 
 TRAIN_BATCH, TRAIN_FRAMES = 100, 70          # the paper's batches (§5.2): 100 windows, 70 predicted frames
 CROWD = 64
-# The targets for the paper size, on the 2-core machine they were set on.
-TARGETS = {"1 stream float32 (fps)": 58, "1 stream bfloat16 (fps)": 100, "64 streams float32 (fps)": 1500}
+# Paper-size targets, set on another 2-core machine (AVX-512 with AVX512-BF16):
+# (what, stream weights, one stream or 64, frames per second)
+TARGETS = (("1 stream, float32", "float32", "one", 58), ("1 stream, bfloat16", "bfloat16", "one", 100),
+           ("64 streams, float32", "float32", "crowd", 1500))
 
 
 def windows(n: int, frames: int) -> torch.Tensor:
@@ -141,7 +143,7 @@ def main() -> None:
     parser.add_argument("--threads", type=int, default=2)
     parser.add_argument("--frames", type=int, default=100, help="frames per stream and timing")
     parser.add_argument("--skip-paper-training", action="store_true",
-                        help="skip the paper-size training step (about a minute)")
+                        help="skip the paper-size training step (about two minutes)")
     args = parser.parse_args()
     torch.set_num_threads(args.threads)
     print(f"torch {torch.__version__}, {args.threads} threads, CPU capability "
@@ -168,17 +170,16 @@ def main() -> None:
             one_limit = limits["bandwidth (GB/s)"] * 1e9 / (size * elements)
             crowd_limit = rate * 1e9 / flops
             label = str(dtype).replace("torch.", "")
-            measured[(name, label)] = ((one, one_limit), (crowd, crowd_limit))
+            measured[(name, label)] = {"one": (one, one_limit), "crowd": (crowd, crowd_limit)}
             first = dtype == torch.float32
             print(f"| {name if first else ''} | {f'{4 * elements / 1e6:.1f}' if first else ''} "
                   f"| {f'{train:.2f}' if first else ''} | {f'{train_limit:.2f}' if first else ''} "
                   f"| {f'{peak:.0f}' if first else ''} | {label} | {one:.1f} | {one_limit:.0f} "
                   f"| {crowd:.0f} | {crowd_limit:.0f} |")
-    paper = {label: measured[("paper (§5.2)", label)] for label in ("float32", "bfloat16")}
     print("\nPaper-size targets (set on another 2-core machine), measured here, and this machine's limit:")
-    for target, (label, which) in zip(TARGETS, (("float32", 0), ("bfloat16", 0), ("float32", 1))):
-        print(f"  {target}: target {TARGETS[target]}, measured {paper[label][which][0]:.0f}, "
-              f"limit {paper[label][which][1]:.0f}")
+    for what, label, streams, target in TARGETS:
+        fps, limit = measured[("paper (§5.2)", label)][streams]
+        print(f"  {what}: target {target} fps, measured {fps:.0f}, limit {limit:.0f}")
     print("\nLimits: one stream = bandwidth / weight bytes; 64 streams = matrix-product rate / (2 x weight "
           "elements) per frame; training step = 3 x 2 x weight elements x 100 x 70 frames / large float32 rate. "
           "bfloat16 streams use the 64-row bfloat16 rate: without native bfloat16 arithmetic (AVX512-BF16, AMX) "

@@ -1,6 +1,7 @@
 """Training steps per second of every model at laptop size, with the ordinary and the fused Adam.
 
-    python benchmarks/training_speed.py [--threads 2] [--batch 32] [--rounds 3]
+    python benchmarks/training_speed.py [--threads 2] [--batch 32] [--rounds 3] [--steps 5]
+    python benchmarks/training_speed.py --rounds 5 --steps 10     # the README's table
 
 One training step is what ``motionlab.training.train`` does per batch: the loss, the
 backward pass, gradient clipping at 1 and an Adam step. Batches of ``--batch`` windows of
@@ -9,10 +10,11 @@ of its three stages (§5.6). The two optimisers run in interleaved rounds on the
 and the table gives each one's median over the rounds, so that a busy moment of the
 machine does not favour either.
 
-``training.adam`` uses PyTorch's fused Adam where it exists for the weights' device (one
-pass over all weights instead of several small operations per weight tensor). The update
-rule is the same. The flows and the VAE-LSTM have many small weight tensors, so for them
-the optimiser's own overhead is a noticeable share of a laptop-size step.
+``training.adam`` uses PyTorch's fused Adam where it exists for the weights' device: one
+pass over the weights per step, instead of several element-wise operations per weight
+tensor. The update rule is the same. It helps where the optimiser is a large share of a
+step: most for the VAE (a million weights, a quick forward pass), about a tenth for the
+flows and the VAE-LSTM.
 """
 from __future__ import annotations
 
