@@ -1,11 +1,11 @@
 """MoGlow quality: test likelihood, and the findings of §4.2 and §5.3, on synthetic and real data.
 
-    python benchmarks/moglow.py [cmu_folder] [--epochs 40] [--retrain]
+    python benchmarks/moglow.py [cmu_folder] [--epochs 30] [--retrain]
 
 For each data set (the built-in synthetic data; real CMU clips when the folder exists,
 default ../shared/mocap/cmu) four laptop-size models (`MoGlowConfig()`) are trained, or
-on synthetic data loaded from `data/checkpoints/` when they fit: MoGlow with history
-dropout 0.7, the same without dropout, and the Markov variant (feed-forward couplings) at
+on synthetic data (200 built-in clips, as notebook 06 and `make checkpoints`) loaded from
+`data/checkpoints/` when they fit: MoGlow with history dropout 0.95, the same without dropout, and the Markov variant (feed-forward couplings) at
 the same width and widened to the same number of weights ("Markov, wide").
 It prints
 
@@ -14,6 +14,8 @@ It prints
    s) when the control says stand still and when it says walk, from real walking starts;
 3. long samples (§5.3): pose spread (cm) over the first and last 5 s of a 20-s sample;
 4. foot skating (cm/s) of 4-s walks in the world, beside the test data's.
+
+Steering along the preset paths, second by second, is in `benchmarks/quality.py`.
 
 CMU trials are short, so real data uses 1-s windows (10 predicted frames after τ = 10).
 """
@@ -36,7 +38,7 @@ TEMPERATURE = 0.3
 
 
 def models_for(prepared, config: MoGlowConfig, epochs: int, tag: str, retrain: bool) -> dict[str, MoGlow]:
-    labels = {"dropout 0.7": "dropout", "no dropout": "no_dropout", "Markov": "markov",
+    labels = {f"dropout {config.dropout:g}": "dropout", "no dropout": "no_dropout", "Markov": "markov",
               "Markov, wide": "markov_matched"}
     models = {}
     for label, variant in labels.items():
@@ -82,13 +84,13 @@ def report(name: str, prepared, config: MoGlowConfig, epochs: int, retrain: bool
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("cmu", nargs="?", default=str(ROOT.parent / "shared" / "mocap" / "cmu"))
-    parser.add_argument("--epochs", type=int, default=40)
+    parser.add_argument("--epochs", type=int, default=30)
     parser.add_argument("--retrain", action="store_true", help="ignore shipped and cached checkpoints")
     parser.add_argument("--threads", type=int, default=2)
     args = parser.parse_args()
     torch.set_num_threads(args.threads)
     config = MoGlowConfig()
-    clips = data.load("synthetic", fps=config.fps)
+    clips = data.load("synthetic", fps=config.fps, n_clips=200)
     report("Synthetic data", data.prepare(clips, window_s=config.window / config.fps), config, args.epochs,
            args.retrain)
     if Path(args.cmu).is_dir():

@@ -1,4 +1,4 @@
-"""Quality of Motegi's and Habibie's models, one row per model, the data's own row first.
+"""Quality of the shipped models, one row per model, the data's own row first.
 
     python benchmarks/quality.py                         # the shipped checkpoints
     python benchmarks/quality.py --data data/cache/cmu   # real clips (trains first: ~3 min)
@@ -21,7 +21,10 @@ a constant pose) show what failing looks like. Tables: (1) motion like the data:
 leg swing, ankle height, foot skating, bone drift; (2) the conv autoencoder against trivial
 reconstructions; (3) the VAE's samples and latent axes; (4) the VAE-LSTM steered, second by
 second (built-in: 10 s along walked paths at walking and running speed; real data: each
-test clip of 3 s or more, by its own control).
+test clip of 3 s or more, by its own control); (5) MoGlow steered along the preset paths
+for 10 s from standing, the data's bodies on the same paths beside it, its §5.3 claim for
+the models with and without history dropout, and a 30-s sample's pose spread and
+diversity (built-in data only).
 """
 from __future__ import annotations
 
@@ -40,6 +43,13 @@ FPS = 20.0
 WINDOW = 80                                   # 4-s windows on built-in data, the notebooks' default
 REAL_WINDOW = 20                              # 1-s windows on real clips (most CMU trials are short)
 STEER_S = 10.0
+LONG_S = 30.0
+TEMPERATURE = 0.3                             # MoGlow's sampling temperature, notebook 06's
+MOGLOW_PRESETS = ("walk", "run", "circle", "side-step", "backwards", "stand still", "walk, then stop")
+# MoGlow targets (steered along the presets, 10 s): stepping within ±20 % of the data's in
+# every second from the 2nd, leg swing >= 80 %, skating <= 2x the data's, bone drift <= 2 %,
+# a 30-s sample's late pose spread >= 70 % of the data's.
+MOGLOW_TARGETS = {"stepping": 0.2, "leg swing": 0.8, "skating": 2.0, "bone drift": 0.02, "spread": 0.7}
 REAL_STEER_S = 3.0
 
 # The recipes of `make checkpoints` (Makefile): command-line arguments and epochs. On real
@@ -64,7 +74,7 @@ def verdict_line(verdict) -> str:
 def shipped() -> tuple[dict, np.ndarray, dict]:
     """The shipped models and the held-out built-in windows."""
     models = {}
-    for name in ("conv_ae", "vae", "vae_lstm"):
+    for name in ("conv_ae", "vae", "vae_lstm", "moglow", "moglow_no_dropout"):
         if name in pretrained.available():
             models[name] = pretrained.load(name)
         else:
@@ -175,6 +185,68 @@ def main(argv: list[str] | None = None) -> None:
             print(f"| {name} | {reference.mean():.2f} | {' '.join(f'{r:.2f}' for r in ratios)} "
                   f"| {metrics.leg_swing(motion) / swing:.2f} | {verdict_line(verdict)} |")
 
+    if not real:
+        moglow_tables(models)
+
+
+def moglow_tables(models: dict) -> None:
+    """Section 5: the shipped MoGlow models steered along the preset paths."""
+    model, no_dropout = models.get("moglow"), models.get("moglow_no_dropout")
+    if model is None:
+        return
+    print(f"\n## 5. MoGlow steered for {STEER_S:g} s along preset paths from standing "
+          f"(4 samples, temperature {TEMPERATURE:g}; data: 4 held-out bodies)\n")
+    print("| path | data stepping (m/s) | stepping / data, seconds 2-10 | leg swing / data | skating (cm/s), "
+          "model / data | bone drift (%) | targets |")
+    print("|---|---|---|---|---|---|---|")
+    reports = {}
+    for name in MOGLOW_PRESETS:
+        r = reports[name] = experiments.steering_report(model, name, STEER_S, temperature=TEMPERATURE)
+        ours, theirs = r["model"], r["data report"]
+        skating = ours["foot skating (m/s)"] / theirs["foot skating (m/s)"]
+        if name in ("stand still", "walk, then stop"):
+            steps = " ".join(f"{v:.2f}" for v in r["stepping"][1:])
+            print(f"| {name} | {' '.join(f'{v:.2f}' for v in r['data stepping'][1:])} | model m/s: {steps} "
+                  f"| | {100 * ours['foot skating (m/s)']:.1f} / {100 * theirs['foot skating (m/s)']:.1f} "
+                  f"| {100 * ours['bone drift']:.2f} | see the claim below |")
+            continue
+        ratios = r["stepping"][1:] / r["data stepping"][1:]
+        # leg swing is measured along the facing direction: side-stepping legs barely lead
+        swing = ours["leg swing (m)"] / theirs["leg swing (m)"] if theirs["leg swing (m)"] > 0.1 else None
+        missed = [label for label, ok in (
+            ("stepping", bool((np.abs(ratios - 1) <= MOGLOW_TARGETS["stepping"]).all())),
+            ("leg swing", swing is None or swing >= MOGLOW_TARGETS["leg swing"]),
+            ("skating", skating <= MOGLOW_TARGETS["skating"]),
+            ("bone drift", ours["bone drift"] <= MOGLOW_TARGETS["bone drift"])) if not ok]
+        print(f"| {name} | {r['data stepping'][1:].mean():.2f} | {' '.join(f'{v:.2f}' for v in ratios)} "
+              f"| {'n/a' if swing is None else f'{swing:.2f}'} | {100 * ours['foot skating (m/s)']:.1f} / {100 * theirs['foot skating (m/s)']:.1f} "
+              f"| {100 * ours['bone drift']:.2f} | {'met' if not missed else 'missed: ' + ', '.join(missed)} |")
+
+    print("\n§5.3, the body follows the control (told to walk: >= 70 % of the data's stepping from the "
+          "2nd second; told to stop: < 0.15 m/s from 1 s after the command):")
+    for label, m in (("dropout", model), ("no dropout", no_dropout)):
+        if m is None:
+            continue
+        walk, stop = (reports["walk"], reports["walk, then stop"]) if m is model else \
+            (experiments.steering_report(m, "walk", STEER_S, temperature=TEMPERATURE),
+             experiments.steering_report(m, "walk, then stop", STEER_S, temperature=TEMPERATURE))
+        verdict = claims.follows_control(walk["samples"], walk["data stepping"], stop["samples"], stop["control"],
+                                         FPS, name=f"MoGlow, {label}")
+        print(f"- {label} ({m.config.dropout:g}): {verdict_line(verdict)}; stepping after the stop "
+              f"{' '.join(f'{v:.2f}' for v in stop['stepping'][6:])} m/s")
+
+    print(f"\n{LONG_S:g}-s samples along the circle (§5.3's long samples; pose spread per 5 s against the data's):")
+    for label, m in (("dropout", model), ("no dropout", no_dropout)):
+        if m is None:
+            continue
+        samples, walks = experiments.steer(m, "circle", LONG_S, temperature=TEMPERATURE)
+        verdict = claims.keeps_moving(samples, walks, FPS, name=f"MoGlow, {label}")
+        ratios = [v for k, v in verdict.figures.items() if "pose spread" in k]
+        late = slice(-int(5 * FPS), None)
+        diversity = metrics.diversity(to_positions(samples, FPS))[late].mean()
+        print(f"- {label}: {' '.join(f'{r:.2f}' for r in ratios)}: {verdict_line(verdict)}; the 4 samples' "
+              f"diversity in the last 5 s {100 * diversity:.1f} cm (the data's 4 bodies: "
+              f"{100 * metrics.diversity(to_positions(walks, FPS))[late].mean():.1f} cm)")
 
 if __name__ == "__main__":
     main()

@@ -33,6 +33,15 @@ TRAVERSAL_EFFECT = 0.5
 """A latent axis "controls" a body part when its sweep moves it by half the data's
 standard deviation or more (Motegi Figs. 7-9)."""
 
+FOLLOWS_CONTROL = {"walk": 0.7, "stopped (m/s)": 0.15, "settle (s)": 1.0}
+"""MoGlow §5.3 made measurable: told to walk, the body steps at least 70 % as fast as the
+data in every second after the first; told to stop, it steps slower than 0.15 m/s from
+one second after the command on."""
+
+KEEPS_MOVING = {"spread": 0.7, "chunk (s)": 5.0}
+"""MoGlow §5.3's long samples: in every 5 s of a long sample the pose varies at least 70 %
+as much as the data's on the same path (no reversion to a static pose)."""
+
 BEATS_TRIVIAL = 0.8
 """A model that claims to use the control must beat the trivial model that uses it too
 (the mean pose moved along the true path) by 20 % or more."""
@@ -228,4 +237,98 @@ def steps_steadily(samples: np.ndarray, reference_stepping, reference_leg_swing:
                                    f"{np.round(per_second / reference, 2).tolist()})")
     verdict.require(swing >= MOVES_LIKE_DATA["leg swing"] * reference_leg_swing,
                     f"leg swing {100 * swing / reference_leg_swing:.0f} % of the data's (need >= 80 %)")
+    return verdict
+
+
+def follows_control(walking: np.ndarray, walking_reference, stopping: np.ndarray, stop_control: np.ndarray,
+                    fps: float, name: str = "model") -> Verdict:
+    """The body does what the control says (MoGlow §5.3): it steps when told to walk and
+    stops when told to stop (:data:`FOLLOWS_CONTROL`).
+
+    A model whose steps fade fails the first half, one that ignores the control and walks
+    on fails the second, a constant or gliding pose fails the first.
+
+    Args:
+        walking: features ``(n, frames, 66)`` generated along a walking path (data units).
+        walking_reference: the data's stepping on that path, m/s, second by second
+            ``(seconds,)`` (:func:`motionlab.experiments.data_stepping`).
+        stopping: features ``(n, frames, 66)`` generated along a path that walks and then
+            stops (``"walk, then stop"``), frame 0 = the path's frame 0.
+        stop_control: that path's control ``(frames, 3)``, m/s and rad/s: the stop command
+            is the frame from which its speed stays below 0.05 m/s and 0.05 rad/s.
+        fps: frames per second.
+    """
+    fps = checks.rate(fps, "fps")
+    walking, stopping = _features(walking, "walking"), _features(stopping, "stopping")
+    stop_control = np.asarray(stop_control, dtype=float)
+    if stop_control.ndim != 2 or stop_control.shape[1] != 3 or len(stop_control) != stopping.shape[-2]:
+        raise ValueError(f"stop_control: expected ({stopping.shape[-2]}, 3), one row per frame of stopping, "
+                         f"got {stop_control.shape}")
+    by_second = metrics.stepping_by_second(walking, fps)
+    per_second = by_second.reshape(-1, by_second.shape[-1]).mean(0)                 # (seconds,)
+    reference = np.asarray(walking_reference, dtype=float)
+    if reference.shape != per_second.shape or not (reference > 0).all():
+        raise ValueError(f"walking_reference: expected {per_second.shape[0]} stepping speeds > 0 (one per second), "
+                         f"got {reference.shape}")
+    moving = np.abs(stop_control).max(axis=1) >= 0.05
+    if not moving.any() or moving[-1]:
+        raise ValueError("stop_control: the path must move and then stop (speed < 0.05 at its end)")
+    stop = int(np.flatnonzero(moving)[-1]) + 1                              # first frame of the stop
+    settled = stop + int(round(FOLLOWS_CONTROL["settle (s)"] * fps))
+    per = int(round(fps))
+    after = metrics.stepping_speed(stopping, fps, smooth_s=0.1).reshape(-1, stopping.shape[-2] - 1).mean(0)[settled:]
+    seconds_after = len(after) // per
+    if seconds_after < 1:
+        raise ValueError(f"stopping: needs at least {FOLLOWS_CONTROL['settle (s)'] + 1:g} s after the stop "
+                         f"command (frame {stop}), got {len(after) / fps:.2f} s")
+    after = after[:seconds_after * per].reshape(seconds_after, per).mean(1)
+    ratios = per_second[1:] / reference[1:]
+    verdict = Verdict(f"{name} follows the control")
+    for k, r in enumerate(ratios):
+        verdict.figures[f"told to walk, second {k + 2}: stepping / the data's"] = float(r)
+    for k, v in enumerate(after):
+        verdict.figures[f"told to stop, second {k + 1} after settling: stepping (m/s)"] = float(v)
+    low = ratios < FOLLOWS_CONTROL["walk"]
+    verdict.require(not low.any(), f"told to walk, steps under {100 * FOLLOWS_CONTROL['walk']:.0f} % of the data's "
+                                   f"in seconds {(np.flatnonzero(low) + 2).tolist()} (ratios {np.round(ratios, 2).tolist()})")
+    verdict.require(bool((after < FOLLOWS_CONTROL["stopped (m/s)"]).all()),
+                    f"told to stop, still steps {np.round(after, 2).tolist()} m/s from "
+                    f"{FOLLOWS_CONTROL['settle (s)']:g} s after the command (need < {FOLLOWS_CONTROL['stopped (m/s)']:g})")
+    return verdict
+
+
+def keeps_moving(samples: np.ndarray, data: np.ndarray, fps: float, name: str = "long samples") -> Verdict:
+    """Long samples do not freeze into a static pose (MoGlow §5.3): in every
+    ``KEEPS_MOVING["chunk (s)"]`` seconds their pose spread (:func:`motionlab.metrics.pose_spread`,
+    averaged over the samples) is at least 70 % of the data's in the same seconds
+    (:data:`KEEPS_MOVING`).
+
+    Args:
+        samples: features ``(n, frames, 66)`` generated along one long path (data units).
+        data: features ``(m, frames, 66)``: the data on the same path, the same frames.
+        fps: frames per second.
+    """
+    fps = checks.rate(fps, "fps")
+    samples, data = _features(samples, "samples"), _features(data, "data")
+    if samples.shape[-2] != data.shape[-2]:
+        raise ValueError(f"samples, data: expected the same number of frames, got {samples.shape[-2]} "
+                         f"and {data.shape[-2]}")
+    chunk = int(round(KEEPS_MOVING["chunk (s)"] * fps))
+    chunks = samples.shape[-2] // chunk
+    if chunks < 2:
+        raise ValueError(f"samples: need at least two chunks of {KEEPS_MOVING['chunk (s)']:g} s "
+                         f"({2 * chunk} frames), got {samples.shape[-2]}")
+
+    def spread(x):                                                    # (chunks,), metres
+        x = x.reshape((-1,) + x.shape[-2:])[:, :chunks * chunk].reshape(-1, chunks, chunk, x.shape[-1])
+        return metrics.pose_spread(x).mean(0)
+
+    ratios = spread(samples) / np.maximum(spread(data), 1e-9)
+    verdict = Verdict(f"{name} keep moving")
+    for k, r in enumerate(ratios):
+        start = k * KEEPS_MOVING["chunk (s)"]
+        verdict.figures[f"{start:g}-{start + KEEPS_MOVING['chunk (s)']:g} s: pose spread / the data's"] = float(r)
+    low = ratios < KEEPS_MOVING["spread"]
+    verdict.require(not low.any(), f"pose spread under {100 * KEEPS_MOVING['spread']:.0f} % of the data's in chunks "
+                                   f"{(np.flatnonzero(low) + 1).tolist()} (ratios {np.round(ratios, 2).tolist()})")
     return verdict

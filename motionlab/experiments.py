@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import metrics, synthetic
-from .representation import POSE, to_features
+from .representation import POSE, to_features, to_positions
 
 
 def control_following(model, start, temperature: float = 0.3, seconds: float = 4.0, seed: int = 0,
@@ -120,14 +120,63 @@ def walked_preset(name: str, seconds: float, fps: float) -> np.ndarray:
     return synthetic.walked_control(_preset(name, seconds, fps), fps)
 
 
+def preset_walks(name: str, seconds: float, fps: float, n: int = 4, lead_frames: int = 0) -> np.ndarray:
+    """``n`` built-in bodies (held-out seeds) following the preset path ``name``: features
+    ``(n, lead_frames + seconds * fps + 1, 66)`` in data units. The path starts from
+    standing (:data:`RAMP_S`); ``lead_frames`` frames of standing come first, the prefix
+    a model that continues motion is given (:func:`steer`)."""
+    rng = np.random.default_rng(HELD_OUT_SEED)
+    control = _preset(name, seconds, fps)
+    control = np.concatenate([np.repeat(control[:1], lead_frames, axis=0), control])
+    return np.stack([to_features(synthetic.generate(control, fps, synthetic.Body.random(rng),
+                                                    synthetic.Style.random(rng)).positions, fps)
+                     for _ in range(n)])
+
+
 def data_stepping(name: str, seconds: float, fps: float, n: int = 4) -> tuple[np.ndarray, float]:
     """The data on the preset path ``name``: ``n`` built-in bodies (held-out seeds) follow it
     for ``seconds``. Returns their stepping speed second by second (m/s, ``(seconds,)``,
     :func:`motionlab.metrics.stepping_by_second` averaged over the bodies) and their leg
     swing (m, :func:`motionlab.metrics.leg_swing`)."""
-    rng = np.random.default_rng(HELD_OUT_SEED)
-    control = _preset(name, seconds, fps)
-    walks = np.stack([to_features(synthetic.generate(control, fps, synthetic.Body.random(rng),
-                                                     synthetic.Style.random(rng)).positions, fps)
-                      for _ in range(n)])
+    walks = preset_walks(name, seconds, fps, n)
     return metrics.stepping_by_second(walks, fps).mean(0), metrics.leg_swing(walks)
+
+
+def steer(model, name: str, seconds: float, n: int = 4, temperature: float = 0.3,
+          seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """A model that continues motion (MoGlow, DFN) steered along the preset path ``name``
+    for ``seconds``, beside the data on the same path.
+
+    ``n`` held-out bodies stand for the model's ``τ`` history frames
+    (``model.config.history``) and then follow the path (:func:`preset_walks`); the model
+    is given their standing frames as its prefix and the path's control (as the first body
+    walked it), and generates ``n`` samples. Returns ``(samples, data)``, both features
+    ``(n, seconds * fps + 1, 66)`` in data units, frame 0 = the first frame after the
+    prefix."""
+    tau = model.config.history
+    walks = preset_walks(name, seconds, model.fps, n, lead_frames=tau)
+    control = walks[0, tau:, POSE.stop:]
+    samples = model.generate(control, prefix=walks[:, :tau], n=n, temperature=temperature, seed=seed).features
+    return samples, walks[:, tau:]
+
+
+def steering_report(model, name: str, seconds: float = 10.0, n: int = 4, temperature: float = 0.3,
+                    seed: int = 0) -> dict:
+    """How a model steered along the preset path ``name`` moves, beside the data on the
+    same path (:func:`steer`; ``n`` samples and ``n`` held-out bodies, ``seconds`` long).
+
+    Returns a dict: ``"samples"``, ``"data"`` (features ``(n, frames, 66)``, data units),
+    ``"control"`` (the control the model was given, ``(frames, 3)``),
+    ``"stepping"``, ``"data stepping"`` (m/s, second by second, ``(seconds,)``, averaged
+    over the bodies; :func:`motionlab.metrics.stepping_by_second`), and ``"model"``,
+    ``"data report"``: :func:`motionlab.metrics.locomotion_report` of each, the feet's
+    planted heights measured on the data.
+    """
+    samples, walks = steer(model, name, seconds, n, temperature, seed)
+    fps = model.fps
+    rest = metrics.foot_rest_heights(to_positions(walks, fps))
+    return {"samples": samples, "data": walks, "control": walks[0, :, POSE.stop:],
+            "stepping": metrics.stepping_by_second(samples, fps).mean(0),
+            "data stepping": metrics.stepping_by_second(walks, fps).mean(0),
+            "model": metrics.locomotion_report(samples, fps, rest),
+            "data report": metrics.locomotion_report(walks, fps, rest)}

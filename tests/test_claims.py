@@ -120,6 +120,75 @@ def test_running_is_not_walking(long_walks):
     assert not claims.steps_steadily(running, stepping, swing, FPS)
 
 
+# -- follows_control (MoGlow §5.3) ---------------------------------------------------------
+
+STOP_PATH = synthetic.preset_control("walk, then stop", 10.0, FPS, ramp_s=0.0)
+
+
+@pytest.fixture(scope="module")
+def stops():
+    """Two bodies that walk and stop at 5 s, as the drawn path says: (2, 200, 66)."""
+    return np.stack([walk(10.0, "walk, then stop", seed=s) for s in range(2)])
+
+
+def test_real_motion_follows_the_control(long_walks, stops):
+    stepping, _ = reference(long_walks[:2])
+    verdict = claims.follows_control(long_walks[2:], stepping, stops, STOP_PATH, FPS)
+    assert verdict, verdict
+
+
+@pytest.mark.parametrize("baseline", [mean_pose_on_path, constant_pose, fading])
+def test_gliding_standing_and_fading_do_not_follow_the_walk(long_walks, stops, baseline):
+    stepping, _ = reference(long_walks[:2])
+    verdict = claims.follows_control(baseline(long_walks[2:]), stepping, stops, STOP_PATH, FPS)
+    assert not verdict, verdict
+    assert any("told to walk" in why for why in verdict.failures)
+
+
+def test_a_model_that_ignores_the_stop_and_walks_on_fails(long_walks):
+    stepping, _ = reference(long_walks[:2])
+    verdict = claims.follows_control(long_walks[2:], stepping, long_walks[:2], STOP_PATH, FPS)
+    assert not verdict, verdict
+    assert any("told to stop" in why for why in verdict.failures)
+
+
+def test_follows_control_refuses_paths_that_do_not_stop(long_walks, stops):
+    stepping, _ = reference(long_walks[:2])
+    with pytest.raises(ValueError, match="stop_control"):
+        claims.follows_control(long_walks[2:], stepping, stops, STOP_PATH[:-1], FPS)
+    walking_path = synthetic.preset_control("walk", 10.0, FPS, ramp_s=0.0)
+    with pytest.raises(ValueError, match="must move and then stop"):
+        claims.follows_control(long_walks[2:], stepping, stops, walking_path, FPS)
+    with pytest.raises(ValueError, match="walking_reference"):
+        claims.follows_control(long_walks[2:], stepping[:3], stops, STOP_PATH, FPS)
+
+
+# -- keeps_moving (MoGlow §5.3, long samples) ------------------------------------------------
+
+@pytest.fixture(scope="module")
+def circles():
+    """Four bodies walking a circle for 20 s: (4, 400, 66)."""
+    return np.stack([walk(20.0, "circle", seed=s) for s in range(4)])
+
+
+def test_real_long_motion_keeps_moving(circles):
+    verdict = claims.keeps_moving(circles[2:], circles[:2], FPS)
+    assert verdict, verdict
+
+
+@pytest.mark.parametrize("baseline", [mean_pose_on_path, constant_pose, fading])
+def test_frozen_and_fading_long_samples_do_not_keep_moving(circles, baseline):
+    verdict = claims.keeps_moving(baseline(circles[2:]), circles[:2], FPS)
+    assert not verdict, verdict
+
+
+def test_keeps_moving_refuses_short_or_unequal_samples(circles):
+    with pytest.raises(ValueError, match="two chunks"):
+        claims.keeps_moving(circles[2:, :150], circles[:2, :150], FPS)
+    with pytest.raises(ValueError, match="same number of frames"):
+        claims.keeps_moving(circles[2:], circles[:2, :300], FPS)
+
+
 # -- beats_trivial_reconstructions ---------------------------------------------------------
 
 def test_reconstruction_claim_needs_both_errors_below_the_best_baseline():

@@ -48,3 +48,25 @@ def test_walked_presets_and_the_data_stepping():
     assert stepping[0] < stepping[1]                    # every path starts from standing (RAMP_S = 1 s)
     assert (0.8 < stepping[1:]).all() and (stepping[1:] < run_stepping[1:]).all()
     assert (standing < 0.01).all() and still_swing < 0.01
+
+
+def test_steering_gives_the_model_the_data_bodies_standing_prefix_and_their_path():
+    """steer / steering_report: a model that continues motion gets the held-out bodies' τ
+    standing frames and the first body's control; the report sets it beside the data."""
+    import torch
+    from motionlab.models.moglow import MoGlow, MoGlowConfig
+
+    torch.manual_seed(0)
+    model = MoGlow(MoGlowConfig(window=16, history=4, steps=2, hidden=8))
+    walks = experiments.preset_walks("walk", 3.0, 20.0, n=2, lead_frames=4)
+    model.normalizer = data.Normalizer.fit(walks.reshape(-1, 66))
+    assert walks.shape == (2, 4 + 61, 66)
+    assert np.abs(walks[:, :4, CONTROL]).max() < 0.01                        # the prefix stands
+    report = experiments.steering_report(model, "walk", 3.0, n=2, temperature=0.3)
+    assert report["samples"].shape == report["data"].shape == (2, 61, 66)
+    assert np.allclose(report["data"], walks[:, 4:])
+    assert np.allclose(report["control"], walks[0, 4:, CONTROL])
+    assert np.allclose(report["samples"][..., CONTROL], report["control"])   # it follows the path it is given
+    assert report["stepping"].shape == report["data stepping"].shape == (3,)
+    assert set(report["model"]) == set(report["data report"]) == {
+        "stepping (m/s)", "leg swing (m)", "ankle height (m)", "foot skating (m/s)", "bone drift"}

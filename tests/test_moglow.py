@@ -54,11 +54,13 @@ def test_shapes_and_conditioning_layout():
     poses, control = x[..., model.modelled], x[..., model.control]
     cond = model.conditioning(poses, control)
     assert cond.shape == (2, 5, model.cond_channels)
-    # frame t = 4 + k sees poses k .. k+3 (oldest first), then controls k .. k+4
+    scale = model.history_scale
+    assert scale == pytest.approx(1 - SMALL.dropout)
+    # frame t = 4 + k sees poses k .. k+3 (oldest first, scaled), then controls k .. k+4
     for k in range(5):
-        expected = model.frame_conditioning(poses[:, k:k + 4], control[:, k:k + 5])[:, 0]
+        expected = model.frame_conditioning(scale * poses[:, k:k + 4], control[:, k:k + 5])[:, 0]
         assert torch.equal(cond[:, k], expected)
-        assert torch.equal(cond[:, k, :61], poses[:, k])
+        assert torch.equal(cond[:, k, :61], scale * poses[:, k])
         assert torch.equal(cond[:, k, -3:], control[:, k + 4])          # the current frame's control
 
 
@@ -132,17 +134,54 @@ def test_history_dropout_drops_whole_frames_and_keeps_the_control():
     torch.manual_seed(0)
     x = features(64, 16)
     poses, control = x[..., model.modelled], x[..., model.control]
-    clean = model.conditioning(poses, control)
+    clean = model.conditioning(poses, control) / model.history_scale   # the full history, unscaled
     dropped = model.conditioning(poses, control, drop=True)
     history = dropped[..., :4 * 61].reshape(64, 12, 4, 61)
     zero_frames = (history == 0).all(-1)
     assert 0.35 < zero_frames.float().mean() < 0.65                 # about half the frames, each whole
     kept = ~zero_frames
-    assert torch.equal(history[kept], clean[..., :4 * 61].reshape(64, 12, 4, 61)[kept])   # kept as they are
-    assert torch.equal(dropped[..., 4 * 61:], clean[..., 4 * 61:])     # the control is never dropped
+    assert torch.allclose(history[kept], clean[..., :4 * 61].reshape(64, 12, 4, 61)[kept])   # kept as they are
+    assert torch.equal(dropped[..., 4 * 61:], model.conditioning(poses, control)[..., 4 * 61:])   # control kept
     # dropout only while training: evaluation is deterministic
     model.eval()
     assert torch.equal(model.log_likelihood(x), model.log_likelihood(x))
+
+
+def test_evaluation_scales_the_history_by_its_expected_training_value():
+    """With dropout p the networks saw, on average, 1 - p of each history frame; evaluation
+    and sampling give them that (scale_history, the default), or the paper's full history."""
+    x = features(2, 9)
+    scaled, paper = MoGlow(replace(SMALL, dropout=0.8)), MoGlow(replace(SMALL, dropout=0.8, scale_history=False))
+    poses, control = x[..., scaled.modelled], x[..., scaled.control]
+    full = paper.conditioning(poses, control)
+    assert paper.history_scale == 1.0 and MoGlow(replace(SMALL, dropout=0.0)).history_scale == 1.0
+    assert torch.allclose(scaled.conditioning(poses, control)[..., :4 * 61], 0.2 * full[..., :4 * 61])
+    assert torch.equal(scaled.conditioning(poses, control)[..., 4 * 61:], full[..., 4 * 61:])
+    # the samplers use it too: with the history scaled to nothing, the history cannot matter
+    nothing = trained_like(replace(SMALL, dropout=0.0))
+    gone = MoGlow(replace(nothing.config, dropout=0.999999)).eval()
+    gone.load_state_dict(nothing.state_dict())
+    noise = torch.randn(2, 3, 61, generator=torch.Generator().manual_seed(1))
+    other = x.clone()
+    other[..., gone.modelled] += 1.0
+    a = gone.sample(x[:, 4:7, gone.control], x[:, :4], noise=noise)
+    b = gone.sample(x[:, 4:7, gone.control], other[:, :4], noise=noise)
+    assert torch.allclose(a, b, atol=1e-4)
+    assert not torch.allclose(nothing.sample(x[:, 4:7, gone.control], x[:, :4], noise=noise),
+                              nothing.sample(x[:, 4:7, gone.control], other[:, :4], noise=noise), atol=1e-4)
+
+
+def test_with_full_history_is_the_same_model_under_the_papers_rule():
+    model = trained_like(replace(SMALL, dropout=0.8))
+    paper = model.with_full_history()
+    assert paper.config == replace(model.config, scale_history=False) and model.config.scale_history
+    assert paper.history_scale == 1.0 and model.history_scale == pytest.approx(0.2)
+    for a, b in zip(model.state_dict().values(), paper.state_dict().values()):
+        assert torch.equal(a, b)
+    x = features(2, 9)
+    poses, control = x[..., model.modelled], x[..., model.control]
+    assert torch.allclose(model.conditioning(poses, control)[..., :4 * 61],
+                          0.2 * paper.conditioning(poses, control)[..., :4 * 61])
 
 
 def test_stream_equals_the_batch_sampler_for_the_same_noise():

@@ -21,12 +21,21 @@ carrying the LSTM states (:class:`MoGlowStream`, the real-time API).
 
 **Dropout on the history (§5.3).** During training each history frame is dropped (set to
 0, the data mean in normalised units) with probability ``dropout`` (0.95 in the paper),
-independently for every predicted frame and lag. Kept frames are passed on as they are,
-not scaled up by ``1 / (1 - dropout)`` as ordinary dropout would: a dropped frame is
-"unknown", not "weak", and the LSTMs see poses in the same range in training and in
-generation (the paper does not say; scaling made no difference we could measure in 10
-epochs, and trained no better). The control is never dropped. Without dropout the model
+independently for every predicted frame and lag, and kept frames are passed on as they
+are, as in the authors' code. The control is never dropped. Without dropout the model
 learns to continue the motion in its history and ignores the control (notebook 06).
+
+**The history at generation.** The paper (Fig. 3) drops nothing at generation: every
+history frame is there. But networks trained with dropout ``p`` have seen, on average,
+only ``1 - p`` of each history frame; given all of it they are outside what they were
+trained on. At laptop size their samples then fade or never step: told to walk at
+1.3 m/s from standing, the shipped model (``p`` = 0.95) steps at 0.20-0.28 m/s with the
+full history and at 0.90-1.05 m/s with it scaled (the data: 1.20-1.30; notebook 06,
+section 7). So, by default, the history is multiplied by ``1 - p`` wherever the model is
+evaluated or sampled (the weight-scaling rule of ordinary dropout, Srivastava et al.
+2014): the networks see the history's expected training value. ``scale_history=False``
+(:meth:`MoGlow.with_full_history`) gives the paper's rule. Training is the same either
+way.
 
 Like :class:`~motionlab.models.glow.Glow` the model works on normalised features
 ``(batch, frames, 66)`` (63 pose + 3 control, :func:`motionlab.data.prepare`) and leaves
@@ -40,6 +49,7 @@ the pluggable part (:class:`LSTMCouplingNet` here; the Markovian variant of §4.
 """
 from __future__ import annotations
 
+import copy
 import math
 from contextlib import contextmanager, nullcontext
 from dataclasses import dataclass, replace
@@ -57,10 +67,10 @@ from .glow import MotionFlow
 
 @dataclass(frozen=True)
 class MoGlowConfig:
-    """Sizes and options. Defaults: a laptop model (40 epochs on the built-in data take
-    2 minutes on 2 CPU cores): ``K = 4`` steps, one LSTM layer of 64 units per coupling,
-    2-s training windows (half the paper's: half the cost per step) and history dropout
-    0.7 (at this budget 0.95 leaves too little to learn from). :meth:`paper` is §5.1-5.3's.
+    """Sizes and options. Defaults: a laptop model (30 epochs on 200 built-in clips take
+    7 minutes on 2 CPU cores): ``K = 4`` steps, one LSTM layer of 64 units per coupling,
+    the paper's 4-s training windows and its history dropout 0.95, with the history scaled
+    by ``1 - dropout`` at generation (``scale_history``). :meth:`paper` is §5.1-5.3's.
 
     Attributes:
         n_features: features per frame (66: 63 pose + 3 control).
@@ -75,20 +85,24 @@ class MoGlowConfig:
         recurrent: LSTM couplings (MoGlow) or feed-forward ones (the Markov model of
             eq. 12, two hidden layers of ``hidden`` units).
         dropout: probability of dropping a history frame during training (§5.3: 0.95).
+        scale_history: when evaluating and sampling, multiply the history by
+            ``1 - dropout`` (its expected value in training); ``False``: the paper's full
+            history (Fig. 3), whose samples fade at laptop size.
         constant_features: pose features that are 0 in every frame and are left out of
             the flow (the hips' root-local ``x`` and ``z``).
     """
 
     n_features: int = 66
     n_control: int = 3
-    window: int = 40
+    window: int = 80
     fps: float = 20.0
     history: int = 10
     steps: int = 4
     hidden: int = 64
     lstm_layers: int = 1
     recurrent: bool = True
-    dropout: float = 0.7
+    dropout: float = 0.95
+    scale_history: bool = True
     constant_features: tuple[int, ...] = (0, 2)
 
     def __post_init__(self):
@@ -191,7 +205,8 @@ class MoGlow(MotionFlow):
             control: ``(batch, frames, n_control)``.
             drop: apply the history dropout of §5.3 (training).
 
-        Frame ``t = τ .. frames-1`` gets ``[x_{t-τ}, ..., x_{t-1}, c_{t-τ}, ..., c_t]`` flattened.
+        Frame ``t = τ .. frames-1`` gets ``[x_{t-τ}, ..., x_{t-1}, c_{t-τ}, ..., c_t]`` flattened;
+        without ``drop`` the poses are multiplied by :attr:`history_scale`.
         """
         tau = self.config.history
         history = poses[:, :-1].unfold(1, tau, 1)                 # (batch, frames-τ, n_modelled, τ)
@@ -199,14 +214,31 @@ class MoGlow(MotionFlow):
             keep = 1.0 - self.config.dropout
             mask = torch.bernoulli(history.new_full(history.shape[:2] + (1, tau), keep))
             history = history * mask                             # per frame: all of its values or none
+        elif self.history_scale != 1.0:
+            history = history * self.history_scale               # evaluation: the expected kept value
         controls = control.unfold(1, tau + 1, 1)                  # (batch, frames-τ, n_control, τ+1)
         return torch.cat([history.transpose(2, 3).flatten(2), controls.transpose(2, 3).flatten(2)], dim=-1)
+
+    @property
+    def history_scale(self) -> float:
+        """What the history is multiplied by when the model is evaluated or sampled:
+        ``1 - dropout`` with ``scale_history`` (the default), else 1 (the paper's Fig. 3)."""
+        return 1.0 - self.config.dropout if self.config.scale_history else 1.0
+
+    def with_full_history(self) -> "MoGlow":
+        """A copy of this model, same weights (and normaliser), that is evaluated and sampled
+        with the paper's full history (Fig. 3: ``scale_history=False``), to compare the two
+        rules."""
+        other = copy.deepcopy(self)
+        other.config = replace(self.config, scale_history=False)
+        return other
 
     @staticmethod
     def frame_conditioning(history: torch.Tensor, controls: torch.Tensor) -> torch.Tensor:
         """The conditioning of one new frame, ``(batch, 1, cond_channels)``, from the ``τ``
         previous modelled poses ``(batch, τ, n_modelled)`` and the controls of those frames
-        and the new one ``(batch, τ + 1, n_control)``; laid out as :meth:`conditioning`."""
+        and the new one ``(batch, τ + 1, n_control)``; laid out as :meth:`conditioning`
+        (the caller scales the history by :attr:`history_scale`)."""
         return torch.cat([history.flatten(1), controls.flatten(1)], dim=1)[:, None]
 
     # -- likelihood (eq. 16) -------------------------------------------------------------
@@ -302,7 +334,7 @@ class MoGlow(MotionFlow):
         controls = torch.cat([history[..., self.control], control], dim=1)
         with eval_mode(self), self.carrying_state():
             for t in range(frames):
-                cond = self.frame_conditioning(poses[:, -tau:], controls[:, t:t + tau + 1])
+                cond = self.frame_conditioning(self.history_scale * poses[:, -tau:], controls[:, t:t + tau + 1])
                 x = self.flow.inverse(temperature * noise[:, t:t + 1], cond)
                 poses = torch.cat([poses, x], dim=1)
         return self.join_features(poses[:, tau:], control)
@@ -409,6 +441,7 @@ class MoGlowStream:
         self.poses = history[..., model.modelled].clone()               # (batch, τ, n_modelled)
         self.controls = history[..., model.control].clone()             # (batch, τ, n_control)
         self.frames = 0
+        self._history_scale = model.history_scale                        # fixed for the stream's life
         with torch.inference_mode():
             self._steps = [self._precompute(step, weights) for step in model.flow.blocks]
             hidden = model.config.hidden
@@ -483,7 +516,7 @@ class MoGlowStream:
             elif tuple(noise.shape) != shape:
                 raise ValueError(f"noise: expected {shape}, got {tuple(noise.shape)}")
             controls = torch.cat([self.controls, control[:, None]], dim=1)       # c_{t-τ .. t}
-            cond = MoGlow.frame_conditioning(self.poses, controls)[:, 0]
+            cond = MoGlow.frame_conditioning(self._history_scale * self.poses, controls)[:, 0]
             x = self.temperature * noise
             for k in reversed(range(len(self._steps))):                          # f_K^-1 ... f_1^-1 undone
                 step = self._steps[k]
