@@ -30,7 +30,7 @@ html: setup
 # The trained weights shipped in data/checkpoints (notebooks 03, 04, 06 and 07 load them).
 # Each is the command line's checkpoint, weights stored as float16; times in data/README.md.
 TRAIN  = $(BIN)/python -m motionlab.train
-MOGLOW = $(TRAIN) moglow --synthetic-clips 200 --epochs 30 --lr 3e-3 --batch-size 32 --half
+MOGLOW = $(TRAIN) moglow --synthetic-clips 200 --epochs 60 --lr 3e-3 --batch-size 32 --half
 # Motegi's conv AE and VAE on its features (notebook 03's data and config).
 MOTEGI  = --synthetic-clips 100 --stride 1.0 --normalization shared_pose --half
 # Habibie's VAE-LSTM and its LSTM-3LR baselines: one budget for all four (notebook 04).

@@ -1,6 +1,6 @@
 """MoGlow quality: test likelihood, and the findings of §4.2 and §5.3, on synthetic and real data.
 
-    python benchmarks/moglow.py [cmu_folder] [--epochs 30] [--retrain]
+    python benchmarks/moglow.py [cmu_folder] [--epochs 60] [--retrain]
 
 For each data set (the built-in synthetic data; real CMU clips when the folder exists,
 default ../shared/mocap/cmu) four laptop-size models (`MoGlowConfig()`) are trained, or
@@ -84,7 +84,7 @@ def report(name: str, prepared, config: MoGlowConfig, epochs: int, retrain: bool
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("cmu", nargs="?", default=str(ROOT.parent / "shared" / "mocap" / "cmu"))
-    parser.add_argument("--epochs", type=int, default=30)
+    parser.add_argument("--epochs", type=int, default=60)
     parser.add_argument("--retrain", action="store_true", help="ignore shipped and cached checkpoints")
     parser.add_argument("--threads", type=int, default=2)
     args = parser.parse_args()

@@ -91,7 +91,7 @@ def shipped_or_train(name: str, model: torch.nn.Module, prepared, config: traini
                                   pretrained=path(name))
 
 
-def train_or_load(prepared, variant: str = "dropout", config: MoGlowConfig = MoGlowConfig(), epochs: int = 30,
+def train_or_load(prepared, variant: str = "dropout", config: MoGlowConfig = MoGlowConfig(), epochs: int = 60,
                   retrain: bool = False, cache: str | Path | None = None):
     """A trained MoGlow ``variant`` (a key of :data:`MOGLOW_VARIANTS`) of ``config`` for the
     data ``prepared`` (:func:`motionlab.data.prepare`), and its history.

@@ -197,7 +197,7 @@ def test_shipped_moglow_checkpoints_fit_the_default_config():
         checkpoint = training.load_checkpoint(folder / f"moglow_{name}.pt", config=config)
         assert checkpoint.description["source"] == "synthetic" and checkpoint.description["window_frames"] == 80
         assert len(checkpoint.description["clips"]["train"]) == 160          # 200 clips: 160 / 20 / 20
-        assert len(checkpoint.history.train) == 3000                         # 30 epochs of 100 steps
+        assert len(checkpoint.history.train) == 6000                         # 60 epochs of 100 steps
 
 
 def test_the_step_time_estimate_leaves_the_model_and_generators_alone(capsys):

@@ -29,8 +29,8 @@ learns to continue the motion in its history and ignores the control (notebook 0
 history frame is there. But networks trained with dropout ``p`` have seen, on average,
 only ``1 - p`` of each history frame; given all of it they are outside what they were
 trained on. At laptop size their samples then fade or never step: told to walk at
-1.3 m/s from standing, the shipped model (``p`` = 0.95) steps at 0.20-0.28 m/s with the
-full history and at 0.90-1.05 m/s with it scaled (the data: 1.20-1.30; notebook 06,
+1.3 m/s from standing, the shipped model (``p`` = 0.95) steps at 0.19-0.29 m/s with the
+full history and at 1.08-1.23 m/s with it scaled (the data: 1.20-1.30; notebook 06,
 section 7). So, by default, the history is multiplied by ``1 - p`` wherever the model is
 evaluated or sampled (the weight-scaling rule of ordinary dropout, Srivastava et al.
 2014): the networks see the history's expected training value. ``scale_history=False``
@@ -67,8 +67,8 @@ from .glow import MotionFlow
 
 @dataclass(frozen=True)
 class MoGlowConfig:
-    """Sizes and options. Defaults: a laptop model (30 epochs on 200 built-in clips take
-    7 minutes on 2 CPU cores): ``K = 4`` steps, one LSTM layer of 64 units per coupling,
+    """Sizes and options. Defaults: a laptop model (60 epochs on 200 built-in clips take
+    15 minutes on 2 CPU cores): ``K = 4`` steps, one LSTM layer of 64 units per coupling,
     the paper's 4-s training windows and its history dropout 0.95, with the history scaled
     by ``1 - dropout`` at generation (``scale_history``). :meth:`paper` is §5.1-5.3's.
 
