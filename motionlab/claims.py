@@ -33,10 +33,10 @@ TRAVERSAL_EFFECT = 0.5
 """A latent axis "controls" a body part when its sweep moves it by half the data's
 standard deviation or more (Motegi Figs. 7-9)."""
 
-FOLLOWS_CONTROL = {"walk": 0.7, "stopped (m/s)": 0.15, "settle (s)": 1.0}
+FOLLOWS_CONTROL = {"walk": 0.7, "stopped (m/s)": 0.15, "settle (s)": 1.0, "stop command": 0.05}
 """MoGlow §5.3 made measurable: told to walk, the body steps at least 70 % as fast as the
-data in every second after the first; told to stop, it steps slower than 0.15 m/s from
-one second after the command on."""
+data in every second after the first; told to stop (the control's speeds below 0.05 m/s
+and rad/s), it steps slower than 0.15 m/s from one second after the command on."""
 
 KEEPS_MOVING = {"spread": 0.7, "chunk (s)": 5.0}
 """MoGlow §5.3's long samples: in every 5 s of a long sample the pose varies at least 70 %
@@ -270,7 +270,7 @@ def follows_control(walking: np.ndarray, walking_reference, stopping: np.ndarray
     if reference.shape != per_second.shape or not (reference > 0).all():
         raise ValueError(f"walking_reference: expected {per_second.shape[0]} stepping speeds > 0 (one per second), "
                          f"got {reference.shape}")
-    moving = np.abs(stop_control).max(axis=1) >= 0.05
+    moving = np.abs(stop_control).max(axis=1) >= FOLLOWS_CONTROL["stop command"]
     if not moving.any() or moving[-1]:
         raise ValueError("stop_control: the path must move and then stop (speed < 0.05 at its end)")
     stop = int(np.flatnonzero(moving)[-1]) + 1                              # first frame of the stop
@@ -288,12 +288,13 @@ def follows_control(walking: np.ndarray, walking_reference, stopping: np.ndarray
         verdict.figures[f"told to walk, second {k + 2}: stepping / the data's"] = float(r)
     for k, v in enumerate(after):
         verdict.figures[f"told to stop, second {k + 1} after settling: stepping (m/s)"] = float(v)
-    low = ratios < FOLLOWS_CONTROL["walk"]
-    verdict.require(not low.any(), f"told to walk, steps under {100 * FOLLOWS_CONTROL['walk']:.0f} % of the data's "
-                                   f"in seconds {(np.flatnonzero(low) + 2).tolist()} (ratios {np.round(ratios, 2).tolist()})")
-    verdict.require(bool((after < FOLLOWS_CONTROL["stopped (m/s)"]).all()),
-                    f"told to stop, still steps {np.round(after, 2).tolist()} m/s from "
-                    f"{FOLLOWS_CONTROL['settle (s)']:g} s after the command (need < {FOLLOWS_CONTROL['stopped (m/s)']:g})")
+    bound = FOLLOWS_CONTROL
+    low = ratios < bound["walk"]
+    verdict.require(not low.any(), f"told to walk, steps under {100 * bound['walk']:.0f} % of the data's in seconds "
+                                   f"{(np.flatnonzero(low) + 2).tolist()} (ratios {np.round(ratios, 2).tolist()})")
+    verdict.require(bool((after < bound["stopped (m/s)"]).all()),
+                    f"told to stop, still steps {np.round(after, 2).tolist()} m/s from {bound['settle (s)']:g} s "
+                    f"after the command (need < {bound['stopped (m/s)']:g})")
     return verdict
 
 

@@ -124,7 +124,8 @@ class MoGlowConfig:
     @classmethod
     def paper(cls, **changes) -> "MoGlowConfig":
         """§5.2: ``K = 16`` steps, ``L = 1``, couplings with 2 LSTM layers of 512 units,
-        ``τ = 10``; §5.1: 4-s windows at 20 fps; §5.3: dropout 0.95."""
+        ``τ = 10``; §5.1: 4-s windows at 20 fps; §5.3: dropout 0.95. The history is scaled
+        at generation as in the default config; ``scale_history=False`` gives Fig. 3's rule."""
         return replace(cls(steps=16, hidden=512, lstm_layers=2, history=10, window=80, fps=20.0, dropout=0.95),
                        **changes)
 
