@@ -24,7 +24,9 @@ second (built-in: 10 s along walked paths at walking and running speed; real dat
 test clip of 3 s or more, by its own control); (5) MoGlow steered along the preset paths
 for 10 s from standing, the data's bodies on the same paths beside it, its §5.3 claim for
 the models with and without history dropout, and a 30-s sample's pose spread and
-diversity (built-in data only).
+diversity (built-in data only); (6) DFN's 30-s futures from held-out prefixes against its
+training data: the §6.3 claim (diversity that grows to the data's band, the data's share of
+running, no freezing) and bone drift with the §5.1 rotation decoder (built-in data only).
 """
 from __future__ import annotations
 
@@ -51,6 +53,7 @@ MOGLOW_PRESETS = ("walk", "run", "circle", "side-step", "backwards", "stand stil
 # a 30-s sample's late pose spread >= 70 % of the data's.
 MOGLOW_TARGETS = {"stepping": 0.2, "leg swing": 0.8, "skating": 2.0, "bone drift": 0.02, "spread": 0.7}
 REAL_STEER_S = 3.0
+DFN_PREFIXES, DFN_SAMPLES, DFN_PREFIX_FRAMES = 8, 16, 10    # 8 held-out prefixes of 0.5 s, 16 samples each
 
 # The recipes of `make checkpoints` (Makefile): command-line arguments and epochs. On real
 # clips each --set also gets window=REAL_WINDOW, and the epochs become as many training steps
@@ -74,7 +77,7 @@ def verdict_line(verdict) -> str:
 def shipped() -> tuple[dict, np.ndarray, dict]:
     """The shipped models and the held-out built-in windows."""
     models = {}
-    for name in ("conv_ae", "vae", "vae_lstm", "moglow", "moglow_no_dropout"):
+    for name in ("conv_ae", "vae", "vae_lstm", "moglow", "moglow_no_dropout", "dfn"):
         if name in pretrained.available():
             models[name] = pretrained.load(name)
         else:
@@ -187,6 +190,7 @@ def main(argv: list[str] | None = None) -> None:
 
     if not real:
         moglow_tables(models)
+        dfn_table(models)
 
 
 def moglow_tables(models: dict) -> None:
@@ -249,6 +253,54 @@ def moglow_tables(models: dict) -> None:
               f"diversity in the last 5 s {100 * diversity:.1f} cm (the data's 4 bodies: "
               f"{100 * metrics.diversity(to_positions(walks, FPS))[late].mean():.1f} cm)")
 
+
+def dfn_futures(model, prefixes: np.ndarray, seconds: float = LONG_S) -> list[np.ndarray]:
+    """DFN_SAMPLES futures of each prefix ``(k, frames, 66)``, prefix first: ``(n, frames, 66)`` each."""
+    frames = int(round(seconds * FPS)) - prefixes.shape[1]
+    return [np.concatenate([np.repeat(p[None], DFN_SAMPLES, 0),
+                            model.generate(prefix=p, frames=frames, n=DFN_SAMPLES, seed=k).features], axis=1)
+            for k, p in enumerate(prefixes)]
+
+
+def dfn_table(models: dict) -> None:
+    """Section 6: the shipped DFN's futures from held-out prefixes (Chen §6.3)."""
+    model = models.get("dfn")
+    if model is None:
+        return
+    description = model.description
+    clips = data.load("synthetic", fps=FPS, n_clips=len(description["clips"]["train"]) + len(description["clips"]["val"])
+                      + len(description["clips"]["test"]), seed=description["seed"])
+    trained = data.prepare(clips, window_s=description["window_frames"] / FPS,
+                           stride_s=description["stride_frames"] / FPS, seed=description["seed"],
+                           augment_with=description["augment"])
+    train_windows = trained.in_data_units(trained.train.windows)
+    held_out = experiments.held_out_windows(DFN_PREFIX_FRAMES * 4, FPS)
+    prefixes = held_out[np.linspace(0, len(held_out) - 1, DFN_PREFIXES).astype(int), :DFN_PREFIX_FRAMES]
+    print(f"\n## 6. DFN: {LONG_S:g}-s futures of {DFN_PREFIXES} held-out prefixes of {DFN_PREFIX_FRAMES / FPS:g} s "
+          f"({DFN_SAMPLES} samples each, temperature 1), against its training windows\n")
+    print("| prefix | distance to mean pose, 0.5-1.5 s / 20-30 s (m) | faster than 2 m/s, last 10 s | pose speed, "
+          "last 5 s (m/s) | bone drift (%) | foot skating (cm/s) |")
+    print("|---|---|---|---|---|---|")
+    rest = metrics.foot_rest_heights(to_positions(train_windows, FPS))
+    futures = np.stack(dfn_futures(model, prefixes))                  # (prefixes, samples, frames, 66)
+    for k, samples in enumerate(futures):
+        f = claims.diverse_futures(samples, train_windows, FPS, DFN_PREFIX_FRAMES).figures
+        generated = to_positions(samples[:, DFN_PREFIX_FRAMES:], FPS)
+        print(f"| {k + 1} | {f['early distance to the mean pose (m), lowest']:.2f} / "
+              f"{f['late distance to the mean pose (m), lowest']:.2f} "
+              f"| {100 * f['share fast, late']:.0f} % | {f['pose speed at the end (m/s), lowest']:.2f} "
+              f"| {100 * f['bone drift']:.4f} | {100 * metrics.foot_skating(generated, FPS, rest_height_m=rest):.1f} |")
+    verdict = claims.diverse_futures(futures, train_windows, FPS, DFN_PREFIX_FRAMES)
+    f = verdict.figures
+    positions = to_positions(train_windows, FPS)
+    data_skating, data_drift = metrics.foot_skating(positions, FPS), metrics.bone_length_drift(positions)
+    print(f"| training data | band {f['data band, mean (m)']:.2f} ± {f['data band, std (m)']:.2f} "
+          f"| {100 * f['share fast, data']:.0f} % | {f['pose speed, data (m/s)']:.2f} | {100 * data_drift:.4f} "
+          f"| {100 * data_skating:.1f} |")
+    print(f"\nall {futures.shape[0] * futures.shape[1]} futures: {100 * f['share fast, late']:.0f} % of "
+          f"the last 10 s faster than 2 m/s (the data's {100 * f['share fast, data']:.0f} %; target within ±30 % of "
+          f"it), bone drift {100 * f['bone drift']:.4f} % (target <= 0.5 %)")
+    print(f"§6.3, futures diversify like the data: {verdict_line(verdict)}")
 
 if __name__ == "__main__":
     main()

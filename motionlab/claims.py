@@ -43,6 +43,16 @@ KEEPS_MOVING = {"spread": 0.7, "chunk (s)": 5.0}
 as much as the data's on the same path (no reversion to a static pose)."""
 
 BEATS_TRIVIAL = 0.8
+DIVERSE_FUTURES = {"growth": 1.5, "early (s)": (0.5, 1.5), "late (s)": (20.0, 30.0), "fast (m/s)": 2.0,
+                   "fast share": 0.3, "pace window (s)": 10.0, "pose speed": 0.5, "speed window (s)": 5.0,
+                   "bone drift": 0.005}
+"""DFN §6.3 made measurable. For the samples of each prefix: their distance to their mean
+pose at 20-30 s is at least 1.5 times that at 0.5-1.5 s and within one standard deviation
+of the data's (Fig. 9), and over the last 5 s the pose changes at least half as fast as the
+data's (no freezing). Over all samples: in the last 10 s the share of frames faster than
+2 m/s is within ±30 % of the data's (they run as often as the data does), and bones stretch
+at most 0.5 % (the joint-rotation decoder of §5.1)."""
+
 """A model that claims to use the control must beat the trivial model that uses it too
 (the mean pose moved along the true path) by 20 % or more."""
 
@@ -332,4 +342,88 @@ def keeps_moving(samples: np.ndarray, data: np.ndarray, fps: float, name: str = 
     low = ratios < KEEPS_MOVING["spread"]
     verdict.require(not low.any(), f"pose spread under {100 * KEEPS_MOVING['spread']:.0f} % of the data's in chunks "
                                    f"{(np.flatnonzero(low) + 1).tolist()} (ratios {np.round(ratios, 2).tolist()})")
+    return verdict
+
+
+# ----------------------------------------------------------------------------------------
+# Chen 2020 (DFN): futures that diversify like the data, at the data's pace
+# ----------------------------------------------------------------------------------------
+
+def diverse_futures(samples: np.ndarray, data: np.ndarray, fps: float, prefix_frames: int,
+                    name: str = "DFN") -> Verdict:
+    """Samples from a prefix spread out to the data's variety and keep its pace (Chen et al.
+    2020 §6.3, Fig. 9, with the bounds of :data:`DIVERSE_FUTURES`).
+
+    A constant pose, the mean pose, copies of one motion and steps that fade fail the growth
+    or the pose speed; a model that only runs, or only walks, fails the pace.
+
+    Args:
+        samples: features ``(n >= 2, frames, 66)`` from one prefix, or ``(prefixes, n,
+            frames, 66)`` from several; frame 0 = the prefix's first frame, at least 30 s
+            (data units). The growth, the band and the pose speed must hold for every prefix;
+            the share of fast frames is taken over all samples (what one prefix leads to is
+            the model's choice; in the long run it should run as often as the data does).
+        data: training windows ``(m, frames >= 2, 66)``: their band
+            (:func:`motionlab.metrics.data_band`), share of fast frames and pose speed are
+            the yardsticks.
+        fps: frames per second.
+        prefix_frames: how many of the first frames are the given prefix (a real body, not
+            generated): bone drift is measured on the frames after it.
+    """
+    fps = checks.rate(fps, "fps")
+    samples, data = _features(samples, "samples"), _features(data, "data")
+    prefix_frames = checks.whole(prefix_frames, "prefix_frames", 0)
+    bound = DIVERSE_FUTURES
+    if samples.ndim == 3:
+        samples = samples[None]
+    if samples.ndim != 4 or samples.shape[1] < 2:
+        raise ValueError(f"samples: expected (n >= 2, frames, 66) from one prefix or (prefixes, n >= 2, frames, 66), "
+                         f"got {samples.shape}")
+    if samples.shape[2] < round(bound["late (s)"][1] * fps):
+        raise ValueError(f"samples: need {bound['late (s)'][1]:g} s ({round(bound['late (s)'][1] * fps)} frames), "
+                         f"got {samples.shape[2]}")
+    if data.ndim != 3 or data.shape[1] < 2:
+        raise ValueError(f"data: expected windows (m, frames >= 2, 66), got {data.shape}")
+
+    def seconds(values, first, last):
+        return float(values[int(round(first * fps)):int(round(last * fps))].mean())
+
+    band_mean, band_std = metrics.data_band(data.reshape(-1, N_FEATURES)[:, :63])
+    last = int(round(bound["speed window (s)"] * fps))
+    early, late, speed = [], [], []                                  # one of each per prefix
+    for one_prefix in samples:
+        distance, _ = metrics.mean_distance_over_time(one_prefix[..., :63])
+        early.append(seconds(distance, *bound["early (s)"]))
+        late.append(seconds(distance, *bound["late (s)"]))
+        speed.append(float(metrics.frame_speed(one_prefix[:, -last:, :63], fps).mean()))
+    early, late, speed = np.array(early), np.array(late), np.array(speed)
+    pace = int(round(bound["pace window (s)"] * fps))
+    fast = float((samples[..., -pace:, 63] > bound["fast (m/s)"]).mean())
+    fast_data = float((data[..., 63] > bound["fast (m/s)"]).mean())
+    speed_data = float(metrics.frame_speed(data[..., :63], fps).mean())
+    generated = samples[:, :, prefix_frames:].reshape(-1, samples.shape[2] - prefix_frames, N_FEATURES)
+    drift = metrics.bone_length_drift(to_positions(generated, fps))
+    verdict = Verdict(f"{name}'s futures diversify like the data")
+    verdict.figures.update({"early distance to the mean pose (m), lowest": float(early.min()),
+                            "late distance to the mean pose (m), lowest": float(late.min()),
+                            "late distance to the mean pose (m), highest": float(late.max()),
+                            "data band, mean (m)": band_mean, "data band, std (m)": band_std,
+                            "share fast, late": fast, "share fast, data": fast_data,
+                            "pose speed at the end (m/s), lowest": float(speed.min()),
+                            "pose speed, data (m/s)": speed_data, "bone drift": drift})
+    flat = np.flatnonzero(late <= bound["growth"] * early)
+    verdict.require(not len(flat), f"the samples of prefixes {(flat + 1).tolist()} do not spread out: "
+                                   f"{np.round(late[flat], 2).tolist()} m late against {np.round(early[flat], 2).tolist()} "
+                                   f"m early (need {bound['growth']:g}x)")
+    out = np.flatnonzero(np.abs(late - band_mean) >= band_std)
+    verdict.require(not len(out), f"late distance {np.round(late[out], 2).tolist()} m (prefixes {(out + 1).tolist()}) "
+                                  f"is outside the data's band {band_mean:.2f} ± {band_std:.2f} m")
+    verdict.require(abs(fast - fast_data) <= bound["fast share"] * fast_data,
+                    f"{100 * fast:.0f} % of late frames faster than {bound['fast (m/s)']:g} m/s against the data's "
+                    f"{100 * fast_data:.0f} % (need within ±{100 * bound['fast share']:.0f} % of it)")
+    frozen = np.flatnonzero(speed < bound["pose speed"] * speed_data)
+    verdict.require(not len(frozen), f"the pose changes at {np.round(speed[frozen], 2).tolist()} m/s at the end "
+                                     f"(prefixes {(frozen + 1).tolist()}) against the data's {speed_data:.2f} (freezing)")
+    verdict.require(drift <= bound["bone drift"], f"bones stretch {100 * drift:.2f} % (need <= "
+                                                  f"{100 * bound['bone drift']:g} %)")
     return verdict

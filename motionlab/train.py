@@ -437,10 +437,16 @@ def training_plan(args: argparse.Namespace) -> Plan:
 # Training, one function per kind of model
 # ----------------------------------------------------------------------------------------
 
+AUGMENT = {"dfn": ("mirror",)}
+"""Augmentation per model where it differs from MoGlow's mirror + reverse (§5.1): DFN has no
+control, so time-reversed clips would teach it to walk backwards on its own (notebook 07)."""
+
+
 def _prepare(args: argparse.Namespace, fps: float, window_s: float) -> data.MotionData:
     clips = data.load(args.data, fps=fps, n_clips=args.synthetic_clips, seed=args.seed)
     prepared = data.prepare(clips, window_s=window_s, stride_s=args.stride, seed=args.seed,
-                            normalization=args.normalization)
+                            normalization=args.normalization,
+                            augment_with=AUGMENT.get(args.model, ("mirror", "reverse")))
     say(prepared.summary())
     return prepared
 

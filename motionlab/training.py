@@ -593,6 +593,8 @@ def train_stages(model: nn.Module, data, configs, stages: tuple[str, ...] | None
             raise ValueError(f"configs: no TrainConfig for stage(s) {missing}")
     windows = getattr(data, "train", data)
     windows = windows.windows if hasattr(windows, "windows") else torch.stack(list(windows))
+    if getattr(data, "normalizer", None) is not None:
+        model.normalizer = data.normalizer          # as train() does; set_stage may need the data's units
     histories = {}
     for stage in stages:
         model.set_stage(stage, windows)
@@ -671,7 +673,8 @@ def save_checkpoint(path: str | Path, model: nn.Module, data=None, history: Hist
     ``data`` is the :class:`motionlab.data.MotionData` the model trained on (its normaliser
     and description are saved); or pass ``normalizer`` and ``description`` directly.
     ``half=True`` stores floating-point weights as float16 (half the size, for checkpoints
-    shipped with the course); they load back into the float32 model. The file is written
+    shipped with the course); they load back into the float32 model. Buffers (fitted
+    statistics such as a model's normalisation or skeleton) are kept in float32. The file is written
     under another name first and then renamed, so an interrupted save never leaves half a
     checkpoint behind.
     """
@@ -680,13 +683,14 @@ def save_checkpoint(path: str | Path, model: nn.Module, data=None, history: Hist
     if normalizer is None:
         normalizer = getattr(data, "normalizer", None) or getattr(model, "normalizer", None)
     description = description if description is not None else getattr(data, "description", {})
+    weights = {name for name, _ in model.named_parameters()}     # buffers (statistics, a skeleton) stay float32
     state = {
         "format": CHECKPOINT_FORMAT,
         "model_class": _class_path(type(model)),
         "config_class": _class_path(type(model.config)),
         "config": dataclasses.asdict(model.config),
-        "state_dict": {k: (v.detach().cpu().half() if half and v.is_floating_point() else v.detach().cpu())
-                       for k, v in model.state_dict().items()},
+        "state_dict": {k: (v.detach().cpu().half() if half and k in weights and v.is_floating_point()
+                           else v.detach().cpu()) for k, v in model.state_dict().items()},
         "normalizer": normalizer.state_dict() if normalizer is not None else None,
         "description": description,
         "history": history.to_dict() if history is not None else None,

@@ -254,3 +254,69 @@ def test_claims_refuse_missing_rows():
         claims.control_beats_no_control({"a": np.zeros(3)}, "a", "b", "c")
     with pytest.raises(ValueError, match="baseline"):
         claims.beats_trivial_reconstructions({"model": (0.1, 0.1)}, "model")
+
+
+# -- diverse_futures (DFN §6.3) --------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def futures():
+    """24 bodies-alike samples of 30 s sharing their first 1.5 s, and 24 other clips as the
+    data: real (synthetic) motion that diversifies. ((24, 600, 66), (24, 600, 66))"""
+    body = synthetic.Body.random(np.random.default_rng(7))
+    samples = np.stack([to_features(synthetic.random_motion(30.0, FPS, seed=100 + k, body=body).positions, FPS)
+                        for k in range(24)])
+    samples[:, :30] = samples[:1, :30]
+    data = np.stack([to_features(synthetic.random_motion(30.0, FPS, seed=200 + k).positions, FPS) for k in range(24)])
+    return samples, data
+
+
+def test_real_motion_from_one_start_diversifies_like_the_data(futures):
+    verdict = claims.diverse_futures(*futures, FPS, 10)
+    assert verdict, verdict
+
+
+def copies(features):
+    return np.repeat(features[:1], len(features), axis=0)
+
+
+@pytest.mark.parametrize("baseline", [mean_pose_on_path, constant_pose, fading, copies])
+def test_frozen_fading_and_identical_futures_do_not_diversify(futures, baseline):
+    samples, data = futures
+    verdict = claims.diverse_futures(baseline(samples), data, FPS, 10)
+    assert not verdict, verdict
+
+
+def test_a_model_that_only_runs_or_only_walks_misses_the_pace(futures):
+    samples, data = futures
+    body = synthetic.Body.random(np.random.default_rng(7))
+    for preset in ("run", "walk"):
+        control = synthetic.preset_control(preset, 30.0, FPS, ramp_s=0.0)
+        one_gait = np.stack([to_features(synthetic.generate(control, FPS, body, synthetic.Style.random(
+            np.random.default_rng(k))).positions, FPS) for k in range(4)])
+        verdict = claims.diverse_futures(one_gait, data, FPS, 10)
+        assert any("faster than" in why for why in verdict.failures), (preset, verdict)
+
+
+def test_stretching_bones_fail_the_futures_check(futures):
+    samples, data = futures
+    stretched = samples.copy()
+    stretched[..., POSE] *= 1 + 0.05 * np.sin(np.linspace(0, 20, samples.shape[1]))[:, None]
+    verdict = claims.diverse_futures(stretched, data, FPS, 10)
+    assert any("bones stretch" in why for why in verdict.failures), verdict
+
+
+def test_diverse_futures_refuses_short_or_single_samples(futures):
+    samples, data = futures
+    with pytest.raises(ValueError, match="30 s"):
+        claims.diverse_futures(samples[:, :400], data, FPS, 10)
+    with pytest.raises(ValueError, match="n >= 2"):
+        claims.diverse_futures(samples[:1], data, FPS, 10)
+
+
+def test_futures_of_several_prefixes_are_judged_per_prefix_and_paced_together(futures):
+    samples, data = futures
+    two = np.stack([samples[:12], samples[12:]])                       # (2 prefixes, 12, 600, 66)
+    assert claims.diverse_futures(two, data, FPS, 10)
+    two[1] = copies(two[1])                                            # the second prefix's samples: one motion
+    verdict = claims.diverse_futures(two, data, FPS, 10)
+    assert any("prefixes [2] do not spread out" in why for why in verdict.failures), verdict

@@ -177,7 +177,7 @@ def test_trained_generation_is_stable_and_diversifies(prepared):
     model = DFN(config)
     cfg = lambda steps: training.TrainConfig(epochs=100, max_steps=steps, batch_size=32, lr=3e-3,  # noqa: E731
                                              progress=False)
-    train_stages(model, prepared.train, {"frame": cfg(150), "sequence": cfg(100), "dynamics": cfg(150)})
+    train_stages(model, prepared, {"frame": cfg(150), "sequence": cfg(100), "dynamics": cfg(300)})
     prefix = prepared.test.windows[:1, :10].expand(8, -1, -1)
     frames = int(30 * config.fps)
     motion = model.sample(prefix, frames, generator=torch.Generator().manual_seed(0))
@@ -213,3 +213,56 @@ def test_bad_arguments_raise_value_errors(prepared, call, match):
     model = staged(DFN(SMALL), prepared.train.windows)
     with pytest.raises(ValueError, match=match):
         call(model, prepared.train.windows[:2])
+
+
+# -- §5.1: the rotation decoder and its forward kinematics ----------------------------------
+
+def test_forward_kinematics_matches_the_course_and_keeps_every_bone(prepared):
+    from motionlab.models.dfn import ForwardKinematics, quaternion_to_matrix
+    from motionlab.rotations import forward_kinematics
+    from motionlab.skeleton import LOCOMOTION
+    metres = torch.as_tensor(prepared.in_data_units(prepared.train.windows)[..., rep.POSE], dtype=torch.float32)
+    fk = ForwardKinematics()
+    fk.fit(metres.unflatten(-1, (21, 3)))
+    lengths = LOCOMOTION.bone_lengths(metres.unflatten(-1, (21, 3)).numpy()).reshape(-1, 20).mean(0)
+    assert np.allclose(fk.offsets[1:].norm(dim=-1).numpy(), lengths, atol=1e-5)    # the data's mean bones
+    torch.manual_seed(0)
+    quaternions = torch.randn(7, len(fk.rotated), 4)
+    hips = torch.randn(7, 3)
+    joints = fk(quaternion_to_matrix(quaternions), hips)                            # (7, 21, 3)
+    # the same as rotations.forward_kinematics with every leaf unturned
+    local = np.tile(np.eye(3), (7, 21, 1, 1))
+    local[:, fk.rotated] = quaternion_to_matrix(quaternions).double().numpy()
+    offsets = np.broadcast_to(fk.offsets.double().numpy(), (7, 21, 3)).copy()
+    offsets[:, 0] = hips.double().numpy()
+    _, expected = forward_kinematics(LOCOMOTION.parents, local, offsets)
+    assert np.allclose(joints.numpy(), expected, atol=1e-5)
+    assert np.allclose(LOCOMOTION.bone_lengths(joints.numpy()), lengths, atol=1e-5)   # any rotation, same bones
+
+
+def test_rotation_decoder_is_the_default_and_cannot_stretch_bones(prepared):
+    assert DFNConfig().pose_decoder == "rotations" and DFNConfig.paper().pose_decoder == "rotations"
+    with pytest.raises(ValueError, match="pose_decoder"):
+        DFNConfig(pose_decoder="joints")
+    with pytest.raises(ValueError, match="pose_decoder"):
+        DFNConfig(n_pose=72)
+    torch.manual_seed(0)
+    config = replace_config(SMALL)
+    drift = {}
+    for decoder in ("rotations", "positions"):
+        model = DFN(replace_config(SMALL, pose_decoder=decoder, frame_hidden=64))
+        truth = prepared.in_data_units(prepared.test.windows)
+        model.normalizer = prepared.normalizer
+        model.set_stage("frame", prepared.train.windows)
+        before = metrics.pose_error(prepared.in_data_units(model.reconstruct(prepared.test.windows)), truth)
+        train_stages(model, prepared, {"frame": training.TrainConfig(epochs=100, max_steps=200, batch_size=16,
+                                                                     lr=3e-3, progress=False)}, stages=("frame",))
+        decoded = prepared.in_data_units(model.reconstruct(prepared.test.windows))
+        drift[decoder] = metrics.bone_length_drift(rep.to_positions(decoded, config.fps))
+        assert decoder == "positions" or metrics.pose_error(decoded, truth) < 0.6 * before    # it learned
+    assert drift["rotations"] < 1e-5 < 1e-3 < drift["positions"]
+
+
+def replace_config(config, **changes):
+    from dataclasses import replace
+    return replace(config, **changes)

@@ -148,9 +148,9 @@ def test_the_shipped_models_load_ready_to_generate(real):
             assert not model.training
             continue
         prefix = real[0, :model.config.history] if name.startswith("moglow") else (
-            real[0, :8] if name.startswith("lstm") else None)
-        control = None if name == "vae" else walk
-        frames = None if name != "vae" else model.conv_ae.config.window
+            real[0, :8] if name.startswith("lstm") or name == "dfn" else None)
+        control = None if name in ("vae", "dfn") else walk
+        frames = model.conv_ae.config.window if name == "vae" else (20 if name == "dfn" else None)
         result = model.generate(control, frames=frames, prefix=prefix, n=2, temperature=0.3, seed=0)
         assert result.features.shape[0] == 2 and np.isfinite(result.positions).all(), name
     with pytest.raises(ValueError, match="name: expected one of"):

@@ -14,7 +14,8 @@ leads there, then updates the past::
     z_t ~ p(z_t | h_t, s^_t)  = N(mu, sigma^2),  4-layer MLP, 128, LeakyReLU        eq. 7
     x^_t = MLP(z_t)           current feature, 3 hidden layers of 128                §5.3
     h_{t+1} = GRU(h_t, [z_t, f_t])               2 stacked layers of 128             eq. 8
-    x^_t --frame decoders (§5.1)--> pose (63) and velocity (3)
+    x^_t --frame decoders (§5.1)--> joint rotations --forward kinematics--> pose (63),
+                                    and velocity (3)
 
 Training infers ``f_t`` and ``z_t`` from the data (§5.4): ``q(f_t | h_t, s_t)`` from the
 true future summary and ``q(z_t | x_t, h_t, s_t)`` from the true frame, and adds a
@@ -43,10 +44,13 @@ from torch import nn
 
 from .. import checks
 from . import gaussian
+from ..skeleton import LOCOMOTION
 from .base import Generated, GenerativeModel, eval_mode, generator_for
 
 STAGES = ("frame", "sequence", "dynamics")
 """The training stages, in order (§5.6)."""
+POSE_DECODERS = ("rotations", "positions")
+"""What the frame decoder outputs (§5.1): joint rotations through forward kinematics, or positions."""
 
 
 @dataclass(frozen=True)
@@ -78,6 +82,9 @@ class DFNConfig:
             feature ``x_t`` and of the future summary ``s_t``, in standardised units.
         velocity_weight: weight of the joint-velocity term of the dynamics embedding's loss
             (eq. 3).
+        pose_decoder: ``"rotations"`` (§5.1: a rotation per joint, passed through forward
+            kinematics over one fixed skeleton, so bone lengths cannot change) or
+            ``"positions"`` (the 63 root-local coordinates directly; bones may stretch).
     """
 
     n_pose: int = 63
@@ -101,6 +108,7 @@ class DFNConfig:
     td_weight: float = 1.0
     observation_std: float = 0.1
     velocity_weight: float = 1.0
+    pose_decoder: str = "rotations"
 
     def __post_init__(self):
         for name in ("n_pose", "n_control", "frame_hidden", "pose_code", "velocity_code", "horizon",
@@ -113,6 +121,11 @@ class DFNConfig:
             raise ValueError(f"fps: must be > 0, got {self.fps}")
         if self.observation_std <= 0:
             raise ValueError(f"observation_std: must be > 0, got {self.observation_std}")
+        if self.pose_decoder not in POSE_DECODERS:
+            raise ValueError(f"pose_decoder: expected one of {', '.join(POSE_DECODERS)}, got {self.pose_decoder!r}")
+        if self.pose_decoder == "rotations" and self.n_pose != 3 * LOCOMOTION.n_joints:
+            raise ValueError(f"pose_decoder: 'rotations' decodes the {LOCOMOTION.n_joints}-joint locomotion "
+                             f"skeleton ({3 * LOCOMOTION.n_joints} pose values), got n_pose={self.n_pose}")
         if self.td_weight < 0 or self.velocity_weight < 0:
             raise ValueError(f"td_weight and velocity_weight: must be >= 0, got {self.td_weight} "
                              f"and {self.velocity_weight}")
@@ -177,14 +190,75 @@ class GaussianHead(nn.Module):
 # §5.1 Spatial embedding: the frame autoencoder
 # ----------------------------------------------------------------------------------------
 
+def quaternion_to_matrix(q: torch.Tensor) -> torch.Tensor:
+    """Rotation matrices ``(..., 3, 3)`` of quaternions ``(..., 4)`` as ``(w, x, y, z)``, any
+    length (each is normalised first)."""
+    w, x, y, z = (q / q.norm(dim=-1, keepdim=True).clamp_min(1e-8)).unbind(-1)
+    return torch.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y),
+                        2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x),
+                        2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+                       -1).reshape(q.shape[:-1] + (3, 3))
+
+
+class ForwardKinematics(nn.Module):
+    """§5.1's forward-kinematics layer (after Pavllo et al. 2018): joint rotations and the
+    hips' position -> the 21 root-local joint positions, with every bone at its fixed length.
+
+    Each joint ``j`` sits at ``p_j = p_parent + G_parent · o_j``, where ``G_parent`` is the
+    parent's rotation composed down from the hips (``G_j = G_parent · R_j``) and ``o_j`` the
+    joint's rest offset from its parent, metres (:meth:`fit`). Only joints with children
+    need a rotation (a leaf's would move nothing). Tensors: ``rotations`` ``(..., rotated,
+    3, 3)``, ``hips`` ``(..., 3)``, result ``(..., 21, 3)``, metres.
+
+    *Choice*: the paper retargets all its data to one skeleton; ours has bodies of several
+    sizes, so the rest offsets are the training frames' mean bone directions (in the root
+    frame) at their mean lengths: every decoded body is that mean body.
+    """
+
+    def __init__(self, skeleton=LOCOMOTION):
+        super().__init__()
+        self.parents = [int(p) for p in skeleton.parents]
+        self.rotated = [j for j in range(len(self.parents)) if j in self.parents]   # joints with children
+        self.register_buffer("offsets", torch.zeros(len(self.parents), 3))
+
+    def fit(self, positions: torch.Tensor) -> None:
+        """Rest offsets from root-local joint positions ``(..., 21, 3)``, metres."""
+        flat = positions.reshape(-1, len(self.parents), 3)
+        for j, parent in enumerate(self.parents):
+            if parent >= 0:
+                bones = flat[:, j] - flat[:, parent]
+                direction = bones.mean(0) / bones.mean(0).norm().clamp_min(1e-8)
+                self.offsets[j] = direction * bones.norm(dim=-1).mean()
+
+    def forward(self, rotations: torch.Tensor, hips: torch.Tensor) -> torch.Tensor:
+        local = dict(zip(self.rotated, rotations.unbind(-3)))
+        turn, where = {}, {}
+        for j, parent in enumerate(self.parents):               # parents come before children
+            if parent < 0:
+                where[j] = hips
+            else:
+                where[j] = where[parent] + (turn[parent] @ self.offsets[j].unsqueeze(-1)).squeeze(-1)
+            if j in local:
+                turn[j] = local[j] if parent < 0 else turn[parent] @ local[j]
+        return torch.stack([where[j] for j in range(len(self.parents))], -2)
+
+
 class FrameAutoencoder(nn.Module):
     """§5.1, Fig. 3: an MLP encoder whose code splits into a pose code and a velocity code,
     a pose decoder and a velocity decoder. ``(..., 66) <-> (..., pose_code + velocity_code)``.
 
-    *Choice*: the paper's pose decoder outputs joint rotations and a forward-kinematics
-    layer keeps bone lengths exact; ours outputs the 63 root-local joint positions directly
-    (the representation every motionlab model shares), so bone lengths can drift a little:
-    ``metrics.bone_length_drift`` measures it (notebook 07, ``benchmarks/dfn.py``).
+    The pose decoder is the paper's by default (``pose_decoder="rotations"``): an MLP from
+    the pose code to a quaternion for every joint with children plus the hips' position,
+    then :class:`ForwardKinematics`. "Using joint rotations instead of joint positions
+    maintains the bone lengths" (§5.1): ``metrics.bone_length_drift`` of anything decoded
+    is zero up to float rounding. ``pose_decoder="positions"`` outputs the 63 root-local
+    coordinates directly instead, and bones can stretch.
+
+    Frames are in normalised units; forward kinematics works in metres, so the decoder
+    keeps the pose columns' normalisation (``pose_mean``, ``pose_std``, set with the rest
+    offsets by :meth:`fit_constants`).
+    *Choice*: quaternions ``(w, x, y, z)``, each decoded as an offset from the identity and
+    normalised, so an untrained decoder starts at the rest pose.
     *Choice*: the encoder sees the whole frame (pose and velocity); the pose decoder sees
     only the pose code and the velocity decoder only the velocity code.
     """
@@ -194,26 +268,56 @@ class FrameAutoencoder(nn.Module):
         c = config
         self.config = c
         self.encoder = mlp([c.n_features, c.frame_hidden, c.frame_hidden, c.code])
-        self.pose_decoder = mlp([c.pose_code, c.frame_hidden, c.frame_hidden, c.n_pose])
+        self.rotations = c.pose_decoder == "rotations"
+        if self.rotations:
+            self.kinematics = ForwardKinematics()
+            outputs = 4 * len(self.kinematics.rotated) + 3                     # quaternions, hips
+        else:
+            outputs = c.n_pose
+        self.pose_decoder = mlp([c.pose_code, c.frame_hidden, c.frame_hidden, outputs])
         self.velocity_decoder = mlp([c.velocity_code, 64, c.n_control])
         # Features the training data never varies (the hips' root-local x and z are 0 by
         # definition) are decoded as that constant: a normalised error there costs almost
         # nothing in eq. 2 but would move the hips away from the root by centimetres.
         self.register_buffer("constant", torch.zeros(c.n_features, dtype=torch.bool))
         self.register_buffer("constant_value", torch.zeros(c.n_features))
+        self.register_buffer("pose_mean", torch.zeros(c.n_pose))
+        self.register_buffer("pose_std", torch.ones(c.n_pose))
 
-    def fit_constants(self, frames: torch.Tensor, tolerance: float = 1e-6) -> None:
-        """Find the features that are constant over training ``frames`` ``(..., 66)``."""
+    def fit_constants(self, frames: torch.Tensor, tolerance: float = 1e-6, pose_mean=None, pose_std=None) -> None:
+        """Fit what the decoder takes from the training ``frames`` ``(..., 66)`` (normalised):
+        the features that never vary and, for the rotation decoder, the rest offsets.
+        ``pose_mean``, ``pose_std`` ``(63,)``: the pose columns' normalisation (metres), so
+        that forward kinematics works in metres (default: the normalised units as they are)."""
         flat = frames.reshape(-1, frames.shape[-1])
         self.constant.copy_(flat.std(0) < tolerance if len(flat) > 1 else torch.zeros_like(self.constant))
         self.constant_value.copy_(flat.mean(0))
+        if pose_mean is not None:
+            self.pose_mean.copy_(torch.as_tensor(pose_mean, dtype=self.pose_mean.dtype))
+            self.pose_std.copy_(torch.as_tensor(pose_std, dtype=self.pose_std.dtype))
+        if self.rotations:
+            metres = flat[:, :self.config.n_pose] * self.pose_std + self.pose_mean
+            self.kinematics.fit(metres.reshape(len(flat), -1, 3))
 
     def encode(self, frames: torch.Tensor) -> torch.Tensor:
         return self.encoder(frames)
 
+    def decode_pose(self, pose_code: torch.Tensor) -> torch.Tensor:
+        """The pose decoder: ``(..., pose_code)`` -> normalised pose ``(..., 63)``."""
+        out = self.pose_decoder(pose_code)
+        if not self.rotations:
+            return out
+        n = len(self.kinematics.rotated)
+        identity = out.new_tensor([1.0, 0.0, 0.0, 0.0])
+        rotations = quaternion_to_matrix(out[..., :4 * n].unflatten(-1, (n, 4)) + identity)
+        hips = torch.where(self.constant[:3], self.constant_value[:3], out[..., 4 * n:])  # joint 0: the hips
+        hips = hips * self.pose_std[:3] + self.pose_mean[:3]                  # metres
+        joints = self.kinematics(rotations, hips)                             # (..., 21, 3), metres
+        return (joints.flatten(-2) - self.pose_mean) / self.pose_std
+
     def decode(self, code: torch.Tensor) -> torch.Tensor:
         pose_code, velocity_code = code.split([self.config.pose_code, self.config.velocity_code], -1)
-        frames = torch.cat([self.pose_decoder(pose_code), self.velocity_decoder(velocity_code)], -1)
+        frames = torch.cat([self.decode_pose(pose_code), self.velocity_decoder(velocity_code)], -1)
         return torch.where(self.constant, self.constant_value, frames)
 
 
@@ -339,7 +443,9 @@ class DFN(GenerativeModel, nn.Module):
         ``"sequence"`` and ``"dynamics"`` need training ``windows`` ``(n, frames, 66)``: the
         frozen encoders' outputs on them set the standardisation of frame codes (and, for
         ``"dynamics"``, of future summaries). For ``"frame"`` they are optional: given, the
-        features they never vary are found (:meth:`FrameAutoencoder.fit_constants`).
+        features they never vary are found and the rotation decoder's skeleton is fitted
+        (:meth:`FrameAutoencoder.fit_constants`), in metres when the model has its data's
+        ``normalizer`` (:func:`motionlab.training.train_stages` sets it first).
         """
         if stage not in STAGES:
             raise ValueError(f"stage: expected one of {', '.join(STAGES)}, got {stage!r}")
@@ -350,7 +456,11 @@ class DFN(GenerativeModel, nn.Module):
             p.requires_grad_(True)
         if stage == "frame" and windows is not None:
             self._check(windows, "windows")
-            self.frame.fit_constants(windows.to(self.code_mean.device))
+            pose = {}
+            if self.normalizer is not None:             # forward kinematics in metres (§5.1)
+                pose = {"pose_mean": self.normalizer.mean[:self.config.n_pose],
+                        "pose_std": self.normalizer.std[:self.config.n_pose]}
+            self.frame.fit_constants(windows.to(self.code_mean.device), **pose)
         if stage != "frame":
             if windows is None:
                 raise ValueError(f"windows: stage {stage!r} needs the training windows to standardise codes")
@@ -568,9 +678,9 @@ class DFN(GenerativeModel, nn.Module):
         frame).
 
         The prefix drives the past state: *Choice* (the paper does not say how it primes
-        the model): for each prefix frame ``f_t`` is the mean of the prior ``p(f_t | h_t)``
-        and ``z_t`` the mean of the posterior ``q(z_t | x_t, h_t, s^_t)``, with the summary
-        unrolled from that ``f_t`` (the true future is not known at generation). Then, for
+        the model): for each prefix frame ``f_t`` and ``z_t`` are the means of the posteriors
+        ``q(f_t | h_t, s_t)`` and ``q(z_t | x_t, h_t, s_t)`` (§5.4), ``s_t`` summarising the
+        prefix from frame ``t`` on, its last frame held where the horizon reaches past it. Then, for
         every new frame (§3, Fig. 5a): ``f_t ~ p(f | h_t)``, ``s^_t = MLP(f_t)``,
         ``z_t ~ p(z | h_t, s^_t)``, ``x^_t = MLP(z_t)``, ``h_{t+1} = GRU(h_t, [z_t, f_t])``.
         """
@@ -589,10 +699,18 @@ class DFN(GenerativeModel, nn.Module):
         given_on = prefix.device
         prefix = prefix.to(self.code_mean.device)                    # the model's device
         state = d.initial_state(prefix.shape[0], c.past, prefix.device)
-        for x in self.codes(prefix).unbind(1):                        # prime the past state
+        # Priming the past state: the inference networks of §5.4 read the prefix as they read
+        # training windows, f and z from their posteriors' means given each frame's future
+        # summary. *Choice*: where the horizon reaches past the prefix, its last frame is
+        # held. (With the prior's f instead, which knows nothing of where the prefix is
+        # heading, a running prefix was followed by standing and a standing one by running.)
+        codes = self.codes(prefix)
+        held = torch.cat([codes, codes[:, -1:].expand(-1, c.horizon - 1, -1)], 1)
+        summaries = self.summaries(held)                              # (n, k, summary)
+        for x, s in zip(codes.unbind(1), summaries.unbind(1)):
             h = state[-1]
-            f = d.future_prior(h)[0]
-            z = d.current_posterior(x, h, d.summary_decoder(f))[0]
+            f = d.future_posterior(h, s)[0]                                              # eq. 11
+            z = d.current_posterior(x, h, s)[0]                                          # eq. 10
             state = d.step_past(state, z, f)
         zs, fs, xs = [], [], []
         for _ in range(frames - k):
