@@ -27,7 +27,7 @@ test: setup
 html: setup
 	$(BIN)/jupyter nbconvert --to html --output-dir build/html notebooks/*.ipynb
 
-# The trained weights shipped in data/checkpoints (notebooks 03, 04, 06 and 07 load them;
+# The trained weights shipped in data/checkpoints (notebooks 03-07 load them;
 # 07 also its DFN, trained on notebook 07's data: 120 built-in clips, mirrored, 2-s windows).
 # Each is the command line's checkpoint, weights stored as float16; times in data/README.md.
 TRAIN  = $(BIN)/python -m motionlab.train
@@ -49,6 +49,8 @@ checkpoints: setup
 	$(MOGLOW) --set dropout=0.0 --out data/checkpoints/moglow_no_dropout.pt
 	$(MOGLOW) --set recurrent=false --out data/checkpoints/moglow_markov.pt
 	$(MOGLOW) --set recurrent=false hidden=205 --out data/checkpoints/moglow_markov_matched.pt
+	$(TRAIN) glow --synthetic-clips 200 --stride 1.0 --epochs 20 --lr 2e-3 --batch-size 32 --half \
+		--out data/checkpoints/glow.pt
 	$(TRAIN) dfn --synthetic-clips 120 --stride 0.5 --stage-epochs frame=10 sequence=10 dynamics=20 \
 		--lr 3e-3 --batch-size 64 --half --out data/checkpoints/dfn.pt
 

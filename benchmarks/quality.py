@@ -24,7 +24,8 @@ second (built-in: 10 s along walked paths at walking and running speed; real dat
 test clip of 3 s or more, by its own control); (5) MoGlow steered along the preset paths
 for 10 s from standing, the data's bodies on the same paths beside it, its §5.3 claim for
 the models with and without history dropout, and a 30-s sample's pose spread and
-diversity (built-in data only); (6) DFN's 30-s futures from held-out prefixes against its
+diversity (built-in data only); (4b) Glow, given each held-out window's control, at five
+temperatures, against the targets of motion like the data (built-in data only); (6) DFN's 30-s futures from held-out prefixes against its
 training data: the §6.3 claim (diversity that grows to the data's band, the data's share of
 running, no freezing) and bone drift with the §5.1 rotation decoder (built-in data only).
 """
@@ -77,7 +78,7 @@ def verdict_line(verdict) -> str:
 def shipped() -> tuple[dict, np.ndarray, dict]:
     """The shipped models and the held-out built-in windows."""
     models = {}
-    for name in ("conv_ae", "vae", "vae_lstm", "moglow", "moglow_no_dropout", "dfn"):
+    for name in ("conv_ae", "vae", "vae_lstm", "glow", "moglow", "moglow_no_dropout", "dfn"):
         if name in pretrained.available():
             models[name] = pretrained.load(name)
         else:
@@ -189,8 +190,25 @@ def main(argv: list[str] | None = None) -> None:
                   f"| {metrics.leg_swing(motion) / swing:.2f} | {verdict_line(verdict)} |")
 
     if not real:
+        glow_table(models, truth)
         moglow_tables(models)
         dfn_table(models)
+
+
+def glow_table(models: dict, truth: np.ndarray) -> None:
+    """Section 4b: the shipped Glow's temperature sweep on the held-out windows."""
+    model = models.get("glow")
+    if model is None:
+        return
+    print("\n## 4b. Glow given each held-out window's control: the temperature sweep (one sample per window)\n")
+    print("| temperature | stepping / data | leg swing / data | skating / data | bone drift (%) | motion like the data |")
+    print("|---|---|---|---|---|---|")
+    for t, verdict in experiments.temperature_sweep(model, truth).items():
+        f = verdict.figures
+        ratios = [f[f"{key}, samples"] / f[f"{key}, data"] for key in ("stepping (m/s)", "leg swing (m)",
+                                                                      "foot skating (m/s)")]
+        print(f"| {t:g} | {ratios[0]:.2f} | {ratios[1]:.2f} | {ratios[2]:.1f} | {100 * f['bone drift, samples']:.2f} "
+              f"| {verdict_line(verdict)} |")
 
 
 def moglow_tables(models: dict) -> None:

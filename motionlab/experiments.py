@@ -180,3 +180,16 @@ def steering_report(model, name: str, seconds: float = 10.0, n: int = 4, tempera
             "data stepping": metrics.stepping_by_second(walks, fps).mean(0),
             "model": metrics.locomotion_report(samples, fps, rest),
             "data report": metrics.locomotion_report(walks, fps, rest)}
+
+
+def temperature_sweep(model, windows: np.ndarray, temperatures=(0.0, 0.25, 0.5, 0.75, 1.0), seed: int = 0) -> dict:
+    """Glow's trade-off (MoGlow paper §3, Kingma & Dhariwal's temperature): one sample per
+    window of ``windows`` ``(n, frames, 66)`` (data units), given that window's control, at
+    each temperature, judged by :func:`motionlab.claims.moves_like_data` against the windows
+    themselves. Returns ``{temperature: Verdict}``; each verdict's figures hold stepping, leg
+    swing, ankle height, skating and bone drift, the samples' and the data's."""
+    from . import claims
+    windows = np.asarray(windows, dtype=np.float64)
+    control = windows[..., POSE.stop:]
+    return {float(t): claims.moves_like_data(model.generate(control, n=len(windows), temperature=t, seed=seed).features,
+                                             windows, model.fps) for t in temperatures}

@@ -42,15 +42,16 @@ NAMES = {"conv_ae": "conv_ae.pt", "vae": "vae.pt", "vae_lstm": "vae_lstm.pt",
          "lstm_no_control": "lstm_no_control.pt", "lstm_control": "lstm_control.pt",
          "moglow": "moglow_dropout.pt", "moglow_no_dropout": "moglow_no_dropout.pt",
          "moglow_markov": "moglow_markov.pt", "moglow_markov_matched": "moglow_markov_matched.pt",
-         "dfn": "dfn.pt"}
+         "glow": "glow.pt", "dfn": "dfn.pt"}
 """Model name -> file in :data:`CHECKPOINTS`. ``"conv_ae"`` is Motegi's temporal conv
 autoencoder and ``"vae"`` his VAE on its features (loaded as one
 :class:`~motionlab.models.vae.MotionVAE`); ``"vae_lstm"`` is Habibie's model (with our free-running term),
 ``"vae_lstm_paper_objective"`` the same trained with eq. 5 alone, and ``"lstm_no_control"``
 / ``"lstm_control"`` the LSTM-3LR baselines of notebook 04, all with one budget. ``"moglow"``
 is MoGlow as the paper trains it (with history dropout, §5.3); the others are the
-variants of notebook 06. ``"dfn"`` is Dynamic Future Net (notebook 07), its three stages
-trained one after another."""
+variants of notebook 06. ``"glow"`` is Glow for 4-s windows given their control (notebook
+05), trained longer and on more clips than the notebook's live run. ``"dfn"`` is Dynamic
+Future Net (notebook 07), its three stages trained one after another."""
 
 
 def available() -> list[str]:

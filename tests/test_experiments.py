@@ -70,3 +70,14 @@ def test_steering_gives_the_model_the_data_bodies_standing_prefix_and_their_path
     assert report["stepping"].shape == report["data stepping"].shape == (3,)
     assert set(report["model"]) == set(report["data report"]) == {
         "stepping (m/s)", "leg swing (m)", "ankle height (m)", "foot skating (m/s)", "bone drift"}
+
+
+def test_temperature_sweep_judges_the_shipped_glow_at_each_temperature():
+    from motionlab import pretrained
+    windows = experiments.held_out_windows(80, 20.0)[:6]
+    sweep = experiments.temperature_sweep(pretrained.load("glow"), windows, temperatures=(0.0, 1.0))
+    assert list(sweep) == [0.0, 1.0]
+    cold, hot = sweep[0.0].figures, sweep[1.0].figures
+    assert cold["leg swing (m), data"] == hot["leg swing (m), data"]                 # one yardstick
+    assert cold["leg swing (m), samples"] > 0.8 * cold["leg swing (m), data"]        # the shipped model steps
+    assert hot["foot skating (m/s), samples"] > cold["foot skating (m/s), samples"]  # noise costs the feet
