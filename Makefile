@@ -27,8 +27,7 @@ test: setup
 html: setup
 	$(BIN)/jupyter nbconvert --to html --output-dir build/html notebooks/*.ipynb
 
-# The trained weights shipped in data/checkpoints (notebooks 03-07 load them;
-# 07 also its DFN, trained on notebook 07's data: 120 built-in clips, mirrored, 2-s windows).
+# The trained weights shipped in data/checkpoints (notebooks 03 to 07 load them).
 # Each is the command line's checkpoint, weights stored as float16; times in data/README.md.
 TRAIN  = $(BIN)/python -m motionlab.train
 MOGLOW = $(TRAIN) moglow --synthetic-clips 200 --epochs 60 --lr 3e-3 --batch-size 32 --half

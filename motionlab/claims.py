@@ -43,6 +43,9 @@ KEEPS_MOVING = {"spread": 0.7, "chunk (s)": 5.0}
 as much as the data's on the same path (no reversion to a static pose)."""
 
 BEATS_TRIVIAL = 0.8
+"""A model that claims to use the control must beat the trivial model that uses it too
+(the mean pose moved along the true path) by 20 % or more."""
+
 DIVERSE_FUTURES = {"growth": 1.5, "early (s)": (0.5, 1.5), "late (s)": (20.0, 30.0), "fast (m/s)": 2.0,
                    "fast share": 0.3, "pace window (s)": 10.0, "pose speed": 0.5, "speed window (s)": 5.0,
                    "bone drift": 0.005}
@@ -52,9 +55,6 @@ of the data's (Fig. 9), and over the last 5 s the pose changes at least half as 
 data's (no freezing). Over all samples: in the last 10 s the share of frames faster than
 2 m/s is within ±30 % of the data's (they run as often as the data does), and bones stretch
 at most 0.5 % (the joint-rotation decoder of §5.1)."""
-
-"""A model that claims to use the control must beat the trivial model that uses it too
-(the mean pose moved along the true path) by 20 % or more."""
 
 
 @dataclass

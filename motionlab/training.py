@@ -674,9 +674,9 @@ def save_checkpoint(path: str | Path, model: nn.Module, data=None, history: Hist
     and description are saved); or pass ``normalizer`` and ``description`` directly.
     ``half=True`` stores floating-point weights as float16 (half the size, for checkpoints
     shipped with the course); they load back into the float32 model. Buffers (fitted
-    statistics such as a model's normalisation or skeleton) are kept in float32. The file is written
-    under another name first and then renamed, so an interrupted save never leaves half a
-    checkpoint behind.
+    statistics such as a model's normalisation or skeleton) are kept in float32. The file is
+    written under another name first and then renamed, so an interrupted save never leaves
+    half a checkpoint behind.
     """
     if not dataclasses.is_dataclass(getattr(model, "config", None)):
         raise ValueError("model: needs a dataclass `config` attribute to be saved")

@@ -1,5 +1,6 @@
 """Dynamic Future Net (Chen et al. 2020): shapes, KL terms, staged training, generation."""
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -8,7 +9,9 @@ from torch.distributions import Normal, kl_divergence
 
 from motionlab import data, metrics, training
 from motionlab import representation as rep
-from motionlab.models.dfn import DFN, STAGES, DFNConfig
+from motionlab.models.dfn import DFN, STAGES, DFNConfig, ForwardKinematics, quaternion_to_matrix
+from motionlab.rotations import forward_kinematics
+from motionlab.skeleton import LOCOMOTION
 from motionlab.training import train_stages
 
 SMALL = DFNConfig(frame_hidden=32, pose_code=6, velocity_code=2, horizon=4, summary=8, past=16,
@@ -218,9 +221,6 @@ def test_bad_arguments_raise_value_errors(prepared, call, match):
 # -- §5.1: the rotation decoder and its forward kinematics ----------------------------------
 
 def test_forward_kinematics_matches_the_course_and_keeps_every_bone(prepared):
-    from motionlab.models.dfn import ForwardKinematics, quaternion_to_matrix
-    from motionlab.rotations import forward_kinematics
-    from motionlab.skeleton import LOCOMOTION
     metres = torch.as_tensor(prepared.in_data_units(prepared.train.windows)[..., rep.POSE], dtype=torch.float32)
     fk = ForwardKinematics()
     fk.fit(metres.unflatten(-1, (21, 3)))
@@ -247,10 +247,9 @@ def test_rotation_decoder_is_the_default_and_cannot_stretch_bones(prepared):
     with pytest.raises(ValueError, match="pose_decoder"):
         DFNConfig(n_pose=72)
     torch.manual_seed(0)
-    config = replace_config(SMALL)
     drift = {}
     for decoder in ("rotations", "positions"):
-        model = DFN(replace_config(SMALL, pose_decoder=decoder, frame_hidden=64))
+        model = DFN(replace(SMALL, pose_decoder=decoder, frame_hidden=64))
         truth = prepared.in_data_units(prepared.test.windows)
         model.normalizer = prepared.normalizer
         model.set_stage("frame", prepared.train.windows)
@@ -258,11 +257,6 @@ def test_rotation_decoder_is_the_default_and_cannot_stretch_bones(prepared):
         train_stages(model, prepared, {"frame": training.TrainConfig(epochs=100, max_steps=200, batch_size=16,
                                                                      lr=3e-3, progress=False)}, stages=("frame",))
         decoded = prepared.in_data_units(model.reconstruct(prepared.test.windows))
-        drift[decoder] = metrics.bone_length_drift(rep.to_positions(decoded, config.fps))
+        drift[decoder] = metrics.bone_length_drift(rep.to_positions(decoded, SMALL.fps))
         assert decoder == "positions" or metrics.pose_error(decoded, truth) < 0.6 * before    # it learned
     assert drift["rotations"] < 1e-5 < 1e-3 < drift["positions"]
-
-
-def replace_config(config, **changes):
-    from dataclasses import replace
-    return replace(config, **changes)
