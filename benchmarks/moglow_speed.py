@@ -1,14 +1,16 @@
 """MoGlow speed against the machine's own limits: training steps, one stream, 64 streams.
 
-    python benchmarks/moglow_speed.py [--threads 2] [--frames 100] [--skip-paper-training]
+    python benchmarks/moglow_speed.py [--threads 2] [--frames 100] [--skip-paper-training] [--nll-epochs 10]
 
 For the laptop configuration and the paper's (§5.2: K = 16 steps, 2 LSTM layers of 512
-units, τ = 10) it prints, in float32 and with bfloat16 streaming weights:
+units, τ = 10) it prints, in float32 and in bfloat16:
 
 * the time of one training step on a batch of 100 windows of 70 predicted frames (80 with
-  the history), and the process's peak memory while it runs;
-* frames per second of the streaming sampler (:class:`MoGlowStream`) for one stream and
-  for 64 streams at once (a crowd of characters);
+  the history), in float32 and in bfloat16 mixed precision (``--precision bf16``: the
+  coupling networks under autocast, the flow's transforms and likelihood in float32), and
+  the peak memory of the process that ran it;
+* frames per second of the streaming sampler (:class:`MoGlowStream`) with float32 and with
+  bfloat16 weights, for one stream and for 64 streams at once (a crowd of characters);
 
 and beside each figure the limit this machine puts on it, measured by the script itself:
 
@@ -18,12 +20,16 @@ and beside each figure the limit this machine puts on it, measured by the script
 * **64 streams** and **training** are arithmetic: ``2 x weight elements`` floating-point
   operations per frame and stream forwards (every weight matrix is used once; the
   element-wise work is far smaller), three times that for a training frame (the backward
-  pass costs twice the forward). Their limits divide by the measured matrix-product rate:
-  the best float32 rate (large products) for both; for bfloat16 streams the rate of
-  64-row bfloat16 products.
+  pass costs twice the forward). Their limits divide by the measured matrix-product rate
+  of their precision (the best of large and 64-row products). The rates vary by 10-20 %
+  between runs, so a step may come out a little under its "limit".
 
-The weights are untrained: speed does not depend on their values. Run it on a quiet
-machine; the figures vary by 10-20 % from run to run on a shared one.
+Last, it trains the laptop model for ``--nll-epochs`` epochs on built-in data twice from
+the same seed, in float32 and in bfloat16, and prints both validation curves and test
+NLLs: bfloat16 must follow float32 within ``NLL_TOLERANCE`` bits per frame.
+
+The speed measurements use untrained weights: speed does not depend on their values. Run
+it on a quiet machine; the figures vary by 10-20 % from run to run on a shared one.
 """
 from __future__ import annotations
 
@@ -31,14 +37,19 @@ import argparse
 import multiprocessing
 import resource
 import time
+from contextlib import nullcontext
 
+import numpy as np
 import torch
 import torch.nn.functional as F
 
+from motionlab import data, training
+from motionlab.models.base import native_bfloat16
 from motionlab.models.moglow import MoGlow, MoGlowConfig
 
 TRAIN_BATCH, TRAIN_FRAMES = 100, 70          # the paper's batches (§5.2): 100 windows, 70 predicted frames
 CROWD = 64
+NLL_TOLERANCE = 1.0                          # bits/frame: bfloat16 training follows the float32 curve this closely
 # Paper-size targets, set on another 2-core machine (AVX-512 with AVX512-BF16):
 # (what, stream weights, one stream or 64, frames per second)
 TARGETS = (("1 stream, float32", "float32", "one", 58), ("1 stream, bfloat16", "bfloat16", "one", 100),
@@ -68,53 +79,60 @@ def best_time(work, repeats: int = 5) -> float:
 
 
 def machine_limits() -> dict[str, float]:
-    """What this machine can do, measured: matrix-vector bandwidth (GB/s) over 240 MB of
-    distinct weights, and matrix-product rates (GFLOP/s): large float32 products (the best
-    this machine's BLAS does) and 64-row bfloat16 ones."""
+    """What this machine can do, measured over matrices of a paper-size LSTM layer's shape:
+
+    * the memory bandwidth (GB/s) a matrix-vector product reaches streaming 240 MB of
+      distinct matrices (the best of float32 and bfloat16 matrices: the stream may use either);
+    * matrix-product rates (GFLOP/s): large products (100 x 70 rows, as in training) in
+      float32 and in bfloat16, and 64-row products (64 streams) over the same 240 MB.
+    """
     shape = (4 * 512, 1205)                        # a paper-size LSTM layer: [W_ih W_hh], 4H x (in + H)
-    matrices = [torch.randn(shape) for _ in range(24)]
-    nbytes = sum(m.numel() * 4 for m in matrices)
-    row, rows = torch.randn(1, shape[1]), torch.randn(CROWD, shape[1])
-    gemv = best_time(lambda: [F.linear(row, m) for m in matrices])
-    crowd = best_time(lambda: [F.linear(rows, m) for m in matrices])
-    big_x, big_w = torch.randn(TRAIN_BATCH * TRAIN_FRAMES, shape[1]), matrices[0]
-    large = best_time(lambda: F.linear(big_x, big_w), 3)
-    half = [m.to(torch.bfloat16) for m in matrices[:4]]
-    half_rows = rows.to(torch.bfloat16)
-    bf16 = best_time(lambda: [F.linear(half_rows, m) for m in half], 2)
-    return {"bandwidth (GB/s)": nbytes / gemv / 1e9,
-            "large float32 (GFLOP/s)": 2 * big_x.shape[0] * big_w.numel() / large / 1e9,
-            "64-row float32 (GFLOP/s)": 2 * CROWD * nbytes / 4 / crowd / 1e9,
-            "64-row bfloat16 (GFLOP/s)": 2 * CROWD * 4 * big_w.numel() / bf16 / 1e9}
+    rates = {}
+    for dtype, name, count in ((torch.float32, "float32", 24), (torch.bfloat16, "bfloat16", 48)):
+        matrices = [torch.randn(shape).to(dtype) for _ in range(count)]            # 240 MB either way
+        nbytes = sum(m.numel() * m.element_size() for m in matrices)
+        row, rows = torch.randn(1, shape[1]).to(dtype), torch.randn(CROWD, shape[1]).to(dtype)
+        big = torch.randn(TRAIN_BATCH * TRAIN_FRAMES, shape[1]).to(dtype)
+        rates[f"bandwidth, {name} (GB/s)"] = nbytes / best_time(lambda: [F.linear(row, m) for m in matrices]) / 1e9
+        elements = sum(m.numel() for m in matrices)
+        rates[f"64-row {name} (GFLOP/s)"] = 2 * CROWD * elements / best_time(
+            lambda: [F.linear(rows, m) for m in matrices], 2) / 1e9
+        rates[f"large {name} (GFLOP/s)"] = 2 * big.shape[0] * matrices[0].numel() / best_time(
+            lambda: F.linear(big, matrices[0]), 8) / 1e9
+    return {"bandwidth (GB/s)": max(rates.pop("bandwidth, float32 (GB/s)"), rates.pop("bandwidth, bfloat16 (GB/s)")),
+            **rates}
 
 
-def training_step(config: MoGlowConfig, repeats: int = 2) -> tuple[float, float]:
+def training_step(config: MoGlowConfig, precision: str = "fp32", repeats: int = 2) -> tuple[float, float]:
     """Seconds of one training step (best of ``repeats``) and the peak memory (MB) of the
-    process that ran it."""
+    process that ran it. ``precision``: ``"fp32"``, or ``"bf16"`` under autocast as
+    ``TrainConfig(precision="bf16")`` trains (the flow's transforms stay float32)."""
     torch.manual_seed(0)
     model = MoGlow(config)
-    optimizer = torch.optim.Adam(model.parameters(), lr=1e-4)
+    optimizer = training.adam(model.parameters(), lr=1e-4)
     x = windows(TRAIN_BATCH, config.history + TRAIN_FRAMES)
+    low = training.PRECISIONS[precision]
 
     def step():
-        loss = model.loss(x)["loss"]
-        optimizer.zero_grad()
+        with torch.autocast("cpu", dtype=low) if low is not None else nullcontext():
+            loss = model.loss(x)["loss"]
+        optimizer.zero_grad(set_to_none=True)
         loss.backward()
         optimizer.step()
     seconds = best_time(step, repeats)              # the first, untimed step also initialises ActNorm
     return seconds, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 
 
-def _training_in_child(config: MoGlowConfig, threads: int, queue) -> None:
+def _training_in_child(config: MoGlowConfig, precision: str, threads: int, queue) -> None:
     torch.set_num_threads(threads)
-    queue.put(training_step(config))
+    queue.put(training_step(config, precision))
 
 
-def training_step_alone(config: MoGlowConfig, threads: int) -> tuple[float, float]:
+def training_step_alone(config: MoGlowConfig, precision: str, threads: int) -> tuple[float, float]:
     """:func:`training_step` in a fresh process, so that its peak memory is its own."""
     context = multiprocessing.get_context("spawn")
     queue = context.Queue()
-    child = context.Process(target=_training_in_child, args=(config, threads, queue))
+    child = context.Process(target=_training_in_child, args=(config, precision, threads, queue))
     child.start()
     result = queue.get()
     child.join()
@@ -138,53 +156,89 @@ def sampling_fps(config: MoGlowConfig, streams: int, frames: int, weights=torch.
     return streams * frames / (time.perf_counter() - began)
 
 
+def precision_trajectory(epochs: int, clips: int) -> None:
+    """Train the laptop MoGlow twice from the same seed on built-in data, in float32 and in
+    bfloat16 mixed precision, and print both runs' validation NLL after every epoch and
+    their test NLL at the end (bits per frame, normalised units), with the seconds each took."""
+    prepared = data.prepare(data.load("synthetic", n_clips=clips), window_s=4.0)
+    print(f"\nLaptop MoGlow, {epochs} epochs on {len(prepared.train.windows)} built-in training windows, "
+          "float32 and bfloat16 from the same seed:\n")
+    runs = {}
+    for precision in ("fp32", "bf16"):
+        torch.manual_seed(0)
+        model = MoGlow(MoGlowConfig())
+        began = time.perf_counter()
+        history = training.train(model, prepared, training.TrainConfig(epochs=epochs, lr=1e-3, progress=False,
+                                                                        precision=precision))
+        seconds = time.perf_counter() - began
+        nats = history.series("loss", "val")[1] * model.n_modelled         # nats per value -> per frame
+        runs[precision] = (nats / np.log(2), model.nll(prepared.test.windows)["bits/frame"], seconds)
+    print("| epoch | " + " | ".join(f"validation, {p} (bits/frame)" for p in runs) + " | difference |")
+    print("|---|---|---|---|")
+    for epoch, (a, b) in enumerate(zip(runs["fp32"][0], runs["bf16"][0]), 1):
+        print(f"| {epoch} | {a:.2f} | {b:.2f} | {b - a:+.2f} |")
+    (fp32_curve, fp32, fp32_s), (bf16_curve, bf16, bf16_s) = runs["fp32"], runs["bf16"]
+    apart = float(np.abs(bf16_curve - fp32_curve).max())
+    print(f"\nTest NLL: float32 {fp32:.2f}, bfloat16 {bf16:.2f} bits/frame ({bf16 - fp32:+.2f}); training "
+          f"{fp32_s:.0f} s and {bf16_s:.0f} s. The validation curves are at most {apart:.2f} bits/frame apart: "
+          f"{'within' if apart <= NLL_TOLERANCE else 'OUTSIDE'} the tolerance of {NLL_TOLERANCE:g} bits/frame "
+          f"(the curves fall by {fp32_curve[0] - fp32_curve[-1]:.0f}).")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--threads", type=int, default=2)
     parser.add_argument("--frames", type=int, default=100, help="frames per stream and timing")
     parser.add_argument("--skip-paper-training", action="store_true",
-                        help="skip the paper-size training step (about two minutes)")
+                        help="skip the paper-size training steps (about three minutes)")
+    parser.add_argument("--nll-epochs", type=int, default=10,
+                        help="epochs of the float32 / bfloat16 NLL comparison (0: skip it)")
+    parser.add_argument("--nll-clips", type=int, default=100, help="built-in clips for that comparison")
     args = parser.parse_args()
     torch.set_num_threads(args.threads)
     print(f"torch {torch.__version__}, {args.threads} threads, CPU capability "
-          f"{torch.backends.cpu.get_cpu_capability()}\n")
+          f"{torch.backends.cpu.get_cpu_capability()}, native bfloat16 products: {native_bfloat16()}\n")
     limits = machine_limits()
     print("This machine, measured: " + ", ".join(f"{name} {value:.1f}" for name, value in limits.items()) + "\n")
 
-    print("| config | weights (MB, float32) | training step (s) | its limit (s) | peak memory (MB) "
-          "| stream weights | 1 stream (fps) | its limit (fps) | 64 streams (fps) | their limit (fps) |")
+    print("| config | weights (MB, float32) | precision | training step (s) | its limit (s) | peak memory (MB) "
+          "| 1 stream (fps) | its limit (fps) | 64 streams (fps) | their limit (fps) |")
     print("|---|---|---|---|---|---|---|---|---|---|")
     measured = {}
     for name, config in {"laptop": MoGlowConfig(), "paper (§5.2)": MoGlowConfig.paper()}.items():
         elements = weight_elements(MoGlow(config))
         flops = 2 * elements                                                   # per frame, forwards
-        if args.skip_paper_training and name != "laptop":
-            train = peak = train_limit = float("nan")
-        else:
-            train, peak = training_step_alone(config, args.threads)
-            train_limit = 3 * flops * TRAIN_BATCH * TRAIN_FRAMES / (limits["large float32 (GFLOP/s)"] * 1e9)
-        for dtype, size in ((torch.float32, 4), (torch.bfloat16, 2)):
+        for dtype, precision, size in ((torch.float32, "fp32", 4), (torch.bfloat16, "bf16", 2)):
+            label = str(dtype).replace("torch.", "")
+            large = limits[f"large {label} (GFLOP/s)"]
+            if args.skip_paper_training and name != "laptop":
+                train = peak = train_limit = float("nan")
+            else:
+                train, peak = training_step_alone(config, precision, args.threads)
+                train_limit = 3 * flops * TRAIN_BATCH * TRAIN_FRAMES / (large * 1e9)
             one = sampling_fps(config, 1, args.frames, dtype)
             crowd = sampling_fps(config, CROWD, max(10, args.frames // 5), dtype)
-            rate = limits["large float32 (GFLOP/s)"] if dtype == torch.float32 else limits["64-row bfloat16 (GFLOP/s)"]
             one_limit = limits["bandwidth (GB/s)"] * 1e9 / (size * elements)
-            crowd_limit = rate * 1e9 / flops
-            label = str(dtype).replace("torch.", "")
-            measured[(name, label)] = {"one": (one, one_limit), "crowd": (crowd, crowd_limit)}
+            crowd_limit = max(large, limits[f"64-row {label} (GFLOP/s)"]) * 1e9 / flops
+            measured[(name, label)] = {"one": (one, one_limit), "crowd": (crowd, crowd_limit), "train": train}
             first = dtype == torch.float32
-            print(f"| {name if first else ''} | {f'{4 * elements / 1e6:.1f}' if first else ''} "
-                  f"| {f'{train:.2f}' if first else ''} | {f'{train_limit:.2f}' if first else ''} "
-                  f"| {f'{peak:.0f}' if first else ''} | {label} | {one:.1f} | {one_limit:.0f} "
+            print(f"| {name if first else ''} | {f'{4 * elements / 1e6:.1f}' if first else ''} | {label} "
+                  f"| {train:.2f} | {train_limit:.2f} | {peak:.0f} | {one:.1f} | {one_limit:.0f} "
                   f"| {crowd:.0f} | {crowd_limit:.0f} |")
     print("\nPaper-size targets (set on another 2-core machine), measured here, and this machine's limit:")
     for what, label, streams, target in TARGETS:
         fps, limit = measured[("paper (§5.2)", label)][streams]
         print(f"  {what}: target {target} fps, measured {fps:.0f}, limit {limit:.0f}")
-    print("\nLimits: one stream = bandwidth / weight bytes; 64 streams = matrix-product rate / (2 x weight "
-          "elements) per frame; training step = 3 x 2 x weight elements x 100 x 70 frames / large float32 rate. "
-          "bfloat16 streams use the 64-row bfloat16 rate: without native bfloat16 arithmetic (AVX512-BF16, AMX) "
-          "it is emulated, far below float32. The laptop model's 3 MB of weights stay in the cache: its "
-          "limits are far above what the per-operation overhead of small products allows.")
+    fp32, bf16 = (measured[("paper (§5.2)", label)]["train"] for label in ("float32", "bfloat16"))
+    print(f"  training step in bfloat16: {bf16 / fp32:.2f} of the float32 step")
+    print("\nLimits: one stream = bandwidth / weight bytes; 64 streams = the better of the 64-row and large "
+          "matrix-product rates / (2 x weight elements) per frame; training step = 3 x 2 x weight elements x "
+          "100 x 70 frames / the large-product rate of its precision. Without native bfloat16 arithmetic "
+          "(AVX512-BF16, AMX) bfloat16 products are emulated, far below float32. The laptop model's 3 MB of "
+          "weights stay in the cache: its limits are far above what the per-operation overhead of small "
+          "products allows.")
+    if args.nll_epochs > 0:
+        precision_trajectory(args.nll_epochs, args.nll_clips)
 
 
 if __name__ == "__main__":

@@ -1,29 +1,30 @@
-"""Training steps per second of every model at laptop size, with the ordinary and the fused Adam.
+"""Training steps per second of every model at laptop size, in float32 and in bfloat16 mixed precision.
 
     python benchmarks/training_speed.py [--threads 2] [--batch 32] [--rounds 3] [--steps 5]
     python benchmarks/training_speed.py --rounds 5 --steps 10     # the README's table
 
-One training step is what ``motionlab.training.train`` does per batch: the loss, the
-backward pass, gradient clipping at 1 and an Adam step. Batches of ``--batch`` windows of
-random normalised features, of each model's default (laptop) window; DFN is timed in each
-of its three stages (§5.6). The two optimisers run in interleaved rounds on the same model,
-and the table gives each one's median over the rounds, so that a busy moment of the
-machine does not favour either.
+One training step is what ``motionlab.training.train`` does per batch: the loss (under
+``torch.autocast(dtype=torch.bfloat16)`` for ``--precision bf16``), the backward pass,
+gradient clipping at 1 and a fused Adam step (``training.adam``). Batches of ``--batch``
+windows of random normalised features, of each model's default (laptop) window; DFN is
+timed in each of its three stages (§5.6). The two precisions run in interleaved rounds on
+the same model, and the table gives each one's median over the rounds, so that a busy
+moment of the machine does not favour either.
 
-``training.adam`` uses PyTorch's fused Adam where it exists for the weights' device: one
-pass over the weights per step, instead of several element-wise operations per weight
-tensor. The update rule is the same. It helps where the optimiser is a large share of a
-step: most for the VAE (a million weights, a quick forward pass), about a tenth for the
-flows and the VAE-LSTM.
+Run it with another checkout's ``motionlab`` first on ``PYTHONPATH`` to compare two
+versions of the library on the same machine (the README's before/after table).
 """
 from __future__ import annotations
 
 import argparse
 import statistics
 import time
+from contextlib import nullcontext
+from pathlib import Path
 
 import torch
 
+import motionlab
 from motionlab.models import MODELS, classes
 from motionlab.models.dfn import STAGES
 
@@ -37,13 +38,15 @@ def batch(model, size: int) -> torch.Tensor:
     return x
 
 
-def steps_per_second(model, x: torch.Tensor, optimizer, steps: int) -> float:
+def steps_per_second(model, x: torch.Tensor, precision: torch.dtype | None, steps: int) -> float:
     parameters = [p for p in model.parameters() if p.requires_grad]
+    optimizer = torch.optim.Adam(parameters, lr=1e-4, fused=True)
 
     def step():
-        loss = model.loss(x)["loss"]
+        with torch.autocast("cpu", dtype=precision) if precision is not None else nullcontext():
+            loss = model.loss(x)["loss"]
         optimizer.zero_grad(set_to_none=True)
-        loss.backward()
+        loss.float().backward()
         torch.nn.utils.clip_grad_norm_(parameters, CLIP)
         optimizer.step()
     step()                                              # warm-up (and ActNorm's initialisation)
@@ -78,20 +81,20 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=5, help="timed steps per round")
     args = parser.parse_args()
     torch.set_num_threads(args.threads)
-    print(f"torch {torch.__version__}, {args.threads} threads, batch {args.batch}, "
-          f"median of {args.rounds} interleaved rounds of {args.steps} steps\n")
-    print("| model | weight tensors | steps/s, Adam | steps/s, fused Adam | ratio |")
-    print("|---|---|---|---|---|")
+    native = torch.backends.mkldnn.is_available() and torch.ops.mkldnn._is_mkldnn_bf16_supported()
+    print(f"torch {torch.__version__}, {args.threads} threads, batch {args.batch}, median of {args.rounds} "
+          f"interleaved rounds of {args.steps} steps; motionlab from {Path(motionlab.__file__).parent}; "
+          f"native bfloat16 products: {native}\n")
+    print("| model | steps/s, float32 | steps/s, bf16 mixed | ratio |")
+    print("|---|---|---|---|")
+    precisions = {"fp32": None, "bf16": torch.bfloat16}
     for label, model, x in models(args.batch):
-        parameters = [p for p in model.parameters() if p.requires_grad]
-        optimizers = {"plain": torch.optim.Adam(parameters, lr=1e-4),
-                      "fused": torch.optim.Adam(parameters, lr=1e-4, fused=True)}
-        rates: dict[str, list[float]] = {name: [] for name in optimizers}
+        rates: dict[str, list[float]] = {name: [] for name in precisions}
         for _ in range(args.rounds):
-            for name, optimizer in optimizers.items():
-                rates[name].append(steps_per_second(model, x, optimizer, args.steps))
-        plain, fused = (statistics.median(rates[name]) for name in ("plain", "fused"))
-        print(f"| {label} | {len(parameters)} | {plain:.1f} | {fused:.1f} | {fused / plain:.2f} |")
+            for name, dtype in precisions.items():
+                rates[name].append(steps_per_second(model, x, dtype, args.steps))
+        fp32, bf16 = (statistics.median(rates[name]) for name in precisions)
+        print(f"| {label} | {fp32:.1f} | {bf16:.1f} | {bf16 / fp32:.2f} |")
 
 
 if __name__ == "__main__":

@@ -39,6 +39,21 @@ def test_a_flow_under_bf16_autocast_keeps_its_likelihood_in_float32(make):
 
 
 @bf16_cpu
+def test_moglow_coupling_lstm_computes_in_bfloat16_under_autocast():
+    # the LSTM is most of MoGlow's arithmetic: under autocast it runs in bfloat16 on the CPU too
+    from motionlab.models.moglow import LSTMCouplingNet
+    network = LSTMCouplingNet(3, 5, 6, hidden=8)
+    lo, cond = torch.randn(2, 7, 3), torch.randn(2, 7, 5)
+    with torch.autocast("cpu", dtype=torch.bfloat16):
+        hidden, _ = network.lstm(torch.cat([lo, cond], -1))
+        assert hidden.dtype == torch.bfloat16
+        assert network(lo, cond).shape == (2, 7, 6)
+    exact, _ = network.lstm(torch.cat([lo, cond], -1))
+    assert exact.dtype == torch.float32
+    torch.testing.assert_close(hidden.float(), exact, atol=0.02, rtol=0.02)      # bfloat16: ~3 digits
+
+
+@bf16_cpu
 def test_the_invertible_1x1_and_the_couplings_compute_in_float32_under_autocast():
     from motionlab.models import flows
     x = windows(4, 8)[..., :6]

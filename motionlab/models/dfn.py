@@ -551,25 +551,27 @@ class DFN(GenerativeModel, nn.Module):
         steps = s.shape[1]
         x = codes[:, :steps]
         state = d.initial_state(batch.shape[0], c.past, batch.device)
-        names = ("h", "qf_mu", "qf_log_var", "pf_mu", "pf_log_var", "f", "s_hat",
-                 "qz_mu", "qz_log_var", "pz_mu", "pz_log_var", "z", "x_hat")
+        names = ("h", "qf_mu", "qf_log_var", "f", "qz_mu", "qz_log_var", "z")
         out: dict[str, list[torch.Tensor]] = {k: [] for k in names}
+        # The recurrence runs through the posteriors and the GRU only; what the priors and
+        # decoders make of h, f and z is computed for every step at once after the loop.
         for t in range(steps):
             h = state[-1]
             qf = d.future_posterior(h, s[:, t])                              # eq. 11
-            pf = d.future_prior(h)                                           # eq. 5
             f = gaussian.sample(*qf, generator=generator)
-            s_hat = d.summary_decoder(f)                                     # eq. 6
             qz = d.current_posterior(x[:, t], h, s[:, t])                    # eq. 10
-            # Choice: the current prior is conditioned on the summary unrolled from the
-            # posterior's f (as at generation, where it comes from the prior's f), not on
-            # the true s, so that p(z | h, s^) is trained on the input it will get.
-            pz = d.current_prior(h, s_hat)                                   # eq. 7
             z = gaussian.sample(*qz, generator=generator)
-            for key, value in zip(names, (h, *qf, *pf, f, s_hat, *qz, *pz, z, d.current_feature(z))):
+            for key, value in zip(names, (h, *qf, f, *qz, z)):
                 out[key].append(value)
             state = d.step_past(state, z, f)                                 # eq. 8
         result = {k: torch.stack(v, 1) for k, v in out.items()}
+        result["pf_mu"], result["pf_log_var"] = d.future_prior(result["h"])           # eq. 5
+        result["s_hat"] = d.summary_decoder(result["f"])                               # eq. 6
+        # Choice: the current prior is conditioned on the summary unrolled from the
+        # posterior's f (as at generation, where it comes from the prior's f), not on
+        # the true s, so that p(z | h, s^) is trained on the input it will get.
+        result["pz_mu"], result["pz_log_var"] = d.current_prior(result["h"], result["s_hat"])   # eq. 7
+        result["x_hat"] = d.current_feature(result["z"])
         result.update(x=x, s=s)
         return result
 
@@ -712,17 +714,17 @@ class DFN(GenerativeModel, nn.Module):
             f = d.future_posterior(h, s)[0]                                              # eq. 11
             z = d.current_posterior(x, h, s)[0]                                          # eq. 10
             state = d.step_past(state, z, f)
-        zs, fs, xs = [], [], []
+        zs, fs = [], []
         for _ in range(frames - k):
             h = state[-1]
             f = gaussian.sample(*d.future_prior(h), temperature, generator)             # eq. 5
             s_hat = d.summary_decoder(f)                                                  # eq. 6
             z = gaussian.sample(*d.current_prior(h, s_hat), temperature, generator)      # eq. 7
-            zs.append(z), fs.append(f), xs.append(d.current_feature(z))         # x = MLP(z)
+            zs.append(z), fs.append(f)
             state = d.step_past(state, z, f)                                     # eq. 8
         empty = prefix.new_zeros(prefix.shape[0], 0, 1)
         stack = lambda v, n: torch.stack(v, 1) if v else empty.expand(-1, -1, n)  # noqa: E731
-        x = stack(xs, c.code)
+        x = d.current_feature(stack(zs, c.current))                  # x = MLP(z), every frame at once
         motion = torch.cat([prefix, self.frames_from_codes(x)], 1)
         if latents:
             return {"frames": motion.to(given_on), "z": stack(zs, c.current).to(given_on),

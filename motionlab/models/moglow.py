@@ -51,7 +51,7 @@ from __future__ import annotations
 
 import copy
 import math
-from contextlib import contextmanager, nullcontext
+from contextlib import contextmanager
 from dataclasses import dataclass, replace
 from functools import partial
 
@@ -60,7 +60,7 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from .base import Generated, eval_mode, generator_for
+from .base import Generated, eval_mode, generator_for, native_bfloat16
 from .flows import _LOG_SIGMOID_SHIFT, SCALE_SHIFT, FlowSequence, FlowStep, GaussianPrior, MLPCouplingNet
 from .glow import MotionFlow
 
@@ -152,10 +152,7 @@ class LSTMCouplingNet(nn.Module):
 
     def forward(self, lo: torch.Tensor, cond: torch.Tensor | None = None) -> torch.Tensor:
         inputs = lo if cond is None else torch.cat([lo, cond], dim=-1)
-        # mixed precision: oneDNN has no bfloat16 LSTM for the CPU, so there it runs in float32
-        with torch.autocast("cpu", enabled=False) if inputs.device.type == "cpu" else nullcontext():
-            hidden, state = self.lstm(inputs.to(self.lstm.weight_ih_l0.dtype) if inputs.device.type == "cpu" else inputs,
-                                      self.state if self.carrying else None)
+        hidden, state = self.lstm(inputs, self.state if self.carrying else None)
         if self.carrying:
             self.state = state
         return self.output(hidden)
@@ -443,6 +440,10 @@ class MoGlowStream:
         self.controls = history[..., model.control].clone()             # (batch, τ, n_control)
         self.frames = 0
         self._history_scale = model.history_scale                        # fixed for the stream's life
+        # one bfloat16 stream: without native bfloat16 arithmetic (AVX512-BF16, AMX) the CPU's
+        # matrix-vector kernel reads the weights faster than its matrix product; with it, slower
+        self._matrix_vector = (self.batch == 1 and weights == torch.bfloat16 and device.type == "cpu"
+                               and not native_bfloat16())
         with torch.inference_mode():
             self._steps = [self._precompute(step, weights) for step in model.flow.blocks]
             hidden = model.config.hidden
@@ -455,30 +456,39 @@ class MoGlowStream:
         actnorm, linear, coupling = step.actnorm, step.linear, step.coupling
         w_inverse = torch.linalg.inv(linear.weight().double()).float()
         lstm, output = coupling.network.lstm, coupling.network.output
+        hidden = lstm.hidden_size
+        # torch stores the gates as rows i, f, g, o; reordered to i, f, o, g, the three
+        # sigmoid gates are one slice (one sigmoid call per layer and frame)
+        order = torch.cat([torch.arange(0, 2 * hidden), torch.arange(3 * hidden, 4 * hidden),
+                           torch.arange(2 * hidden, 3 * hidden)])
         layers = []
         for k in range(lstm.num_layers):
-            joined = torch.cat([getattr(lstm, f"weight_ih_l{k}"), getattr(lstm, f"weight_hh_l{k}")], dim=1)
-            layers.append((joined.to(dtype).contiguous(),
-                           (getattr(lstm, f"bias_ih_l{k}") + getattr(lstm, f"bias_hh_l{k}")).clone()))
+            joined = torch.cat([getattr(lstm, f"weight_ih_l{k}"), getattr(lstm, f"weight_hh_l{k}")], dim=1)[order]
+            bias = (getattr(lstm, f"bias_ih_l{k}") + getattr(lstm, f"bias_hh_l{k}"))[order]
+            layers.append((joined.to(dtype).contiguous(), bias.clone()))
         return {"scale": torch.exp(-actnorm.log_scale).clone(), "bias": actnorm.bias.clone(),
                 "w_inverse_t": w_inverse.T.contiguous(), "n_lo": coupling.n_lo, "n_hi": coupling.n_hi,
                 "layers": layers, "output": (output.weight.clone(), output.bias.clone())}
 
     def _coupling_network(self, k: int, inputs: torch.Tensor) -> torch.Tensor:
-        """Coupling ``k``'s network on one frame: the LSTM layers (gates in torch's order
-        i, f, g, o), carrying their state, then the output layer. ``(batch, in)`` ->
-        ``(batch, 2 * n_hi)``."""
+        """Coupling ``k``'s network on one frame: the LSTM layers (gates reordered i, f, o,
+        g by :meth:`_precompute`), carrying their state, then the output layer.
+        ``(batch, in)`` -> ``(batch, 2 * n_hi)``."""
         states = self._states[k]
         for layer, (weight, bias) in enumerate(self._steps[k]["layers"]):
             h, c = states[layer]
-            joined = torch.cat([inputs, h], dim=1).to(weight.dtype)
-            if self.batch == 1 and weight.dtype == torch.bfloat16:   # the faster bfloat16 kernel on CPU
-                gates = torch.mv(weight, joined[0])[None].float() + bias
-            else:
-                gates = F.linear(joined, weight).float() + bias
-            i, f, g, o = gates.chunk(4, dim=1)
-            c = torch.sigmoid(f) * c + torch.sigmoid(i) * torch.tanh(g)
-            h = torch.sigmoid(o) * torch.tanh(c)
+            joined = torch.cat([inputs, h], dim=1)
+            if weight.dtype == torch.float32:
+                gates = F.linear(joined, weight, bias)
+            elif self._matrix_vector:                                # one stream, no native bfloat16
+                gates = bias + torch.mv(weight, joined[0].to(weight.dtype))[None]
+            else:                                                    # bfloat16 product, float32 sum
+                gates = bias + F.linear(joined.to(weight.dtype), weight)
+            hidden = h.shape[1]
+            sigmoid = torch.sigmoid(gates[:, :3 * hidden])
+            i, f, o = sigmoid[:, :hidden], sigmoid[:, hidden:2 * hidden], sigmoid[:, 2 * hidden:]
+            c = torch.addcmul(f * c, i, torch.tanh(gates[:, 3 * hidden:]))
+            h = o * torch.tanh(c)
             states[layer] = (h, c)
             inputs = h
         return F.linear(inputs, *self._steps[k]["output"])

@@ -188,11 +188,22 @@ class ControlledLSTMCell(nn.Module):
     def forward(self, previous: torch.Tensor, drive: torch.Tensor, control_code: torch.Tensor) -> torch.Tensor:
         """One step. ``previous`` ``c_{t-1}`` and ``drive`` ``(batch, units)``,
         ``control_code`` ``h_t`` ``(batch, control_code)`` -> ``c_t`` ``(batch, units)``."""
-        input_gate = torch.sigmoid(self.W_ic(previous) + self.W_ih(control_code))     # eq. 7
-        forget_gate = torch.sigmoid(self.W_fc(previous) + self.W_fh(control_code))    # eq. 8
+        return self.step(previous, self.W_c(drive), *self.control_terms(control_code))
+
+    def control_terms(self, control_code: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        """What the control adds to eqs. 7, 8 and 9, ``W_ih h + b_ih``, ``W_fh h + b_fh``
+        and ``W_h h``: ``control_code`` ``(..., control_code)`` -> three ``(..., units)``.
+        They do not depend on ``c_{t-1}``, so a sequence computes them for every step at once."""
+        return self.W_ih(control_code), self.W_fh(control_code), self.W_h(control_code)
+
+    def step(self, previous: torch.Tensor, driven: torch.Tensor, input_from_control: torch.Tensor,
+             forget_from_control: torch.Tensor, candidate_from_control: torch.Tensor) -> torch.Tensor:
+        """Eqs. 7-9 given ``driven = W_c drive`` and :meth:`control_terms`, each ``(batch, units)``."""
+        input_gate = torch.sigmoid(self.W_ic(previous) + input_from_control)       # eq. 7
+        forget_gate = torch.sigmoid(self.W_fc(previous) + forget_from_control)     # eq. 8
         # Choice: the paper's activation "alpha" in eq. 9 is ELU everywhere else (§4.2);
         # we use the LSTM's tanh, which keeps the test-time recursion c_{t-1} -> c_t bounded.
-        return torch.tanh(forget_gate * self.W_c(drive) + input_gate * self.W_h(control_code))   # eq. 9
+        return torch.tanh(forget_gate * driven + input_gate * candidate_from_control)   # eq. 9
 
 
 class CanvasDecoder(nn.Module):
@@ -319,11 +330,15 @@ class VAELSTM(GenerativeModel, nn.Module):
         steps = control_code.shape[1]
         if latents.shape[1] not in (1, steps):
             raise ValueError(f"latents: expected 1 or {steps} steps, got {latents.shape[1]}")
+        # the terms that do not depend on c_{s-1} are computed for every step at once
+        from_control = self.cell.control_terms(control_code)
+        driven = self.cell.W_c(latents) if latents.shape[1] == steps else None
         previous = latents[:, 0]
         states = []
         for s in range(steps):
-            drive = latents[:, s] if latents.shape[1] == steps else (latents[:, 0] if s == 0 else previous)
-            previous = self.cell(previous, drive, control_code[:, s])
+            # test time: the drive is c_{s-1}, and z_1 (= c_0) at the first step
+            drive = driven[:, s] if driven is not None else self.cell.W_c(previous)
+            previous = self.cell.step(previous, drive, *(term[:, s] for term in from_control))
             states.append(previous)
         return torch.stack(states, dim=1)                      # m_c = [c_1 || ... || c_S]
 
