@@ -27,7 +27,9 @@ the models with and without history dropout, and a 30-s sample's pose spread and
 diversity (built-in data only); (4b) Glow, given each held-out window's control, at five
 temperatures, against the targets of motion like the data (built-in data only); (6) DFN's 30-s futures from held-out prefixes against its
 training data: the §6.3 claim (diversity that grows to the data's band, the data's share of
-running, no freezing) and bone drift with the §5.1 rotation decoder (built-in data only).
+running, no freezing) and bone drift with the §5.1 rotation decoder (built-in data only);
+(7) every shipped model side by side, notebook 08's table from the same functions
+(``motionlab.comparison``), and stepping at commanded speeds (built-in data only).
 """
 from __future__ import annotations
 
@@ -37,7 +39,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from motionlab import claims, data, experiments, metrics, pretrained, training
+from motionlab import claims, comparison, data, experiments, metrics, pretrained, training
 from motionlab import train as cli
 from motionlab.models.vae import axis_effects
 from motionlab.representation import to_positions
@@ -193,6 +195,7 @@ def main(argv: list[str] | None = None) -> None:
         glow_table(models, truth)
         moglow_tables(models)
         dfn_table(models)
+        comparison_tables()
 
 
 def glow_table(models: dict, truth: np.ndarray) -> None:
@@ -319,6 +322,24 @@ def dfn_table(models: dict) -> None:
           f"the last 10 s faster than 2 m/s (the data's {100 * f['share fast, data']:.0f} %; target within ±30 % of "
           f"it), bone drift {100 * f['bone drift']:.4f} % (target <= 0.5 %)")
     print(f"§6.3, futures diversify like the data: {verdict_line(verdict)}")
+
+def comparison_tables() -> None:
+    """Section 7: every shipped model on one test set, notebook 08's table and its claim."""
+    models = comparison.load_models()
+    if not models:
+        return
+    windows = experiments.held_out_windows(comparison.TEST_WINDOW, comparison.FPS)
+    rows, long = comparison.test_rows(models, windows), comparison.long_run(models)
+    print(f"\n## 7. All the shipped models side by side (notebook 08): {len(windows)} held-out windows, "
+          f"{comparison.PREFIX_FRAMES} frames of prefix, 30-s runs along the circle; frames/s measured now\n")
+    print(comparison.table(models, rows, long, comparison.generation_speed(models)))
+    following = comparison.speed_following(models)
+    print("\nstepping (m/s) at the commanded speeds " + ", ".join(f"{v:g}" for v in comparison.SPEEDS) + " m/s:")
+    for label, stepping in following.items():
+        verdict = "" if label == "data" else \
+            f": {verdict_line(claims.follows_speed(comparison.SPEEDS, stepping, following['data'], name=label))}"
+        print(f"- {label}: {' '.join(f'{v:.2f}' for v in stepping)}{verdict}")
+
 
 if __name__ == "__main__":
     main()

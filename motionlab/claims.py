@@ -308,6 +308,41 @@ def follows_control(walking: np.ndarray, walking_reference, stopping: np.ndarray
     return verdict
 
 
+def follows_speed(speeds, stepping, data_stepping, name: str = "model") -> Verdict:
+    """The body steps as fast as the commanded speed asks (notebook 08's comparison): told
+    to stand (speed 0) it steps slower than ``FOLLOWS_CONTROL["stopped (m/s)"]``, and over
+    the commanded speeds above 0 its stepping is on average within ``STEADY_STEPPING``
+    (±25 %) of the data's mean stepping at those speeds (mean absolute difference).
+
+    A model that ignores the control steps alike at every speed and fails; so do steps that
+    fade, a standing or gliding pose, and a model that walks when told to stand.
+
+    Args:
+        speeds: commanded forward speeds, m/s ``(k,)``, one of them 0.
+        stepping: the model's stepping speed at each (m/s, :func:`motionlab.metrics.stepping_by_second`).
+        data_stepping: the data's stepping on the same paths (m/s).
+    """
+    speeds, stepping, data_stepping = (np.asarray(v, dtype=float) for v in (speeds, stepping, data_stepping))
+    if speeds.ndim != 1 or stepping.shape != speeds.shape or data_stepping.shape != speeds.shape:
+        raise ValueError(f"speeds, stepping, data_stepping: expected three (k,) arrays, got {speeds.shape}, "
+                         f"{stepping.shape}, {data_stepping.shape}")
+    if not (speeds == 0).any() or not (speeds > 0).any():
+        raise ValueError(f"speeds: expected 0 and at least one speed above 0, got {speeds.tolist()}")
+    if not np.isfinite(stepping).all() or not (data_stepping[speeds > 0] > 0).all():
+        raise ValueError("stepping, data_stepping: expected finite speeds, the data stepping at every speed > 0")
+    moving = speeds > 0
+    standing = float(stepping[speeds == 0].max())
+    error = float(np.abs(stepping[moving] - data_stepping[moving]).mean() / data_stepping[moving].mean())
+    verdict = Verdict(f"{name} steps at the commanded speed")
+    verdict.figures["told to stand: stepping (m/s)"] = standing
+    verdict.figures["moving: mean |stepping - the data's| / the data's mean"] = error
+    stopped = FOLLOWS_CONTROL["stopped (m/s)"]
+    verdict.require(standing < stopped, f"told to stand, steps at {standing:.2f} m/s (need < {stopped:g})")
+    verdict.require(error <= STEADY_STEPPING, f"stepping is {100 * error:.1f} % off the data's on average "
+                                              f"(need <= {100 * STEADY_STEPPING:.0f} %)")
+    return verdict
+
+
 def keeps_moving(samples: np.ndarray, data: np.ndarray, fps: float, name: str = "long samples") -> Verdict:
     """Long samples do not freeze into a static pose (MoGlow §5.3): in every
     ``KEEPS_MOVING["chunk (s)"]`` seconds their pose spread (:func:`motionlab.metrics.pose_spread`,

@@ -125,8 +125,14 @@ def preset_walks(name: str, seconds: float, fps: float, n: int = 4, lead_frames:
     ``(n, lead_frames + seconds * fps + 1, 66)`` in data units. The path starts from
     standing (:data:`RAMP_S`); ``lead_frames`` frames of standing come first, the prefix
     a model that continues motion is given (:func:`steer`)."""
+    return walks(_preset(name, seconds, fps), fps, n, lead_frames)
+
+
+def walks(control: np.ndarray, fps: float, n: int = 4, lead_frames: int = 0) -> np.ndarray:
+    """``n`` built-in bodies (held-out seeds) following the drawn path ``control``
+    ``(frames, 3)`` (m/s, rad/s), after ``lead_frames`` frames of its first control:
+    features ``(n, lead_frames + frames, 66)`` in data units."""
     rng = np.random.default_rng(HELD_OUT_SEED)
-    control = _preset(name, seconds, fps)
     control = np.concatenate([np.repeat(control[:1], lead_frames, axis=0), control])
     return np.stack([to_features(synthetic.generate(control, fps, synthetic.Body.random(rng),
                                                     synthetic.Style.random(rng)).positions, fps)

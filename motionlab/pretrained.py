@@ -131,4 +131,5 @@ def load_motion_vae(path: str | Path):
     motion_normalizer = Normalizer.from_state_dict(vae.description["motion_normalizer"])
     model = MotionVAE(vae.model, conv_ae.model, vae.normalizer, motion_normalizer)
     model.history, model.description = vae.history, vae.description
+    model.conv_ae.history = conv_ae.history              # the features' own training, for the record
     return model

@@ -320,3 +320,34 @@ def test_futures_of_several_prefixes_are_judged_per_prefix_and_paced_together(fu
     two[1] = copies(two[1])                                            # the second prefix's samples: one motion
     verdict = claims.diverse_futures(two, data, FPS, 10)
     assert any("prefixes [2] do not spread out" in why for why in verdict.failures), verdict
+
+
+# -- follows_speed: stepping at the commanded speed (notebook 08) ---------------------------
+
+SPEEDS = np.array([0.0, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0])
+DATA_STEPPING = np.array([0.0, 0.52, 0.98, 1.42, 1.74, 1.36, 1.50])      # the built-in bodies, measured
+
+
+def test_follows_speed_holds_for_stepping_close_to_the_data():
+    verdict = claims.follows_speed(SPEEDS, 1.1 * DATA_STEPPING + 0.02, DATA_STEPPING)
+    assert verdict, str(verdict)
+
+
+@pytest.mark.parametrize("baseline", [
+    lambda d: np.full_like(d, d[1:].mean()),          # ignores the control: the data's mean stepping at every speed
+    lambda d: np.zeros_like(d),                        # a constant pose, or the mean pose moved along the path
+    lambda d: 0.5 * d,                                 # steps that fade to half
+    lambda d: d + 0.3,                                 # walks on when told to stand
+    lambda d: d[::-1].copy(),                          # runs when told to stand, stands when told to run
+], ids=["ignores control", "constant pose", "fading", "never stands", "reversed"])
+def test_follows_speed_fails_for_trivial_baselines(baseline):
+    assert not claims.follows_speed(SPEEDS, baseline(DATA_STEPPING), DATA_STEPPING)
+
+
+def test_follows_speed_checks_its_arguments():
+    with pytest.raises(ValueError, match="speeds: expected 0"):
+        claims.follows_speed(SPEEDS[1:], DATA_STEPPING[1:], DATA_STEPPING[1:])
+    with pytest.raises(ValueError, match="three"):
+        claims.follows_speed(SPEEDS, DATA_STEPPING[:3], DATA_STEPPING)
+    with pytest.raises(ValueError, match="finite"):
+        claims.follows_speed(SPEEDS, np.full(7, np.nan), DATA_STEPPING)

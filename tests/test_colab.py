@@ -34,7 +34,7 @@ def run_setup_cell(monkeypatch, on_colab: bool, course_exists: bool = False):
 
 
 def test_every_notebook_starts_with_the_badges_and_the_setup_cell():
-    assert len(NOTEBOOKS) == 7
+    assert len(NOTEBOOKS) == 8
     assert colab.check() == []
     for path in NOTEBOOKS:
         assert first_code_cell(path) == colab.setup_cell(), path.name

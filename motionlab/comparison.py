@@ -1,0 +1,255 @@
+"""Every shipped generative model on one test set, with one set of measures (notebook 08).
+
+None of the four papers compares these families on the same data with the same measures.
+Here each model is loaded with :func:`motionlab.pretrained.load` and asked through the one
+``generate`` contract (:mod:`motionlab.models.base`) for what it can do:
+
+* :data:`ENTRIES`: which models, what each conditions on (nothing, a control path, a
+  prefix of real frames, or both) and the temperature it samples at (the notebooks').
+* :func:`respond`: one call that gives a model the control and/or the prefix it reads.
+* :func:`test_rows`: on held-out built-in windows (4 s), every model continues or follows
+  each window; the table's measures (stepping, leg swing, skating, bone drift, pose error
+  at 1 and 3 s, test NLL where the model has one) beside the data's own row.
+* :func:`speed_following`: constant forward speeds commanded for 10 s; how fast the feet
+  step, against the data's bodies on the same paths.
+* :func:`long_run`: 30 s along a circle: pose spread, bone drift and diversity over time.
+* :func:`generation_speed`: frames per second, one stream and 64 at once.
+
+``benchmarks/quality.py`` prints the same table from the same functions.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+
+from . import experiments, metrics, pretrained, synthetic
+from .representation import N_POSE, to_positions
+
+FPS = 20.0
+PREFIX_FRAMES = 10                     # 0.5 s of real frames for the models that continue motion
+TEST_WINDOW = 80                       # 4-s held-out windows: 0.5 s prefix, 3.5 s judged
+SPEEDS = (0.0, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0)
+"""Forward speeds (m/s) commanded in :func:`speed_following`."""
+
+
+@dataclass(frozen=True)
+class Entry:
+    """A model of the comparison: its checkpoint, what it conditions on, its temperature."""
+
+    name: str                          # pretrained.load name
+    label: str
+    paper: str
+    control: bool                      # does it follow a control path?
+    prefix: bool                       # does it continue real frames?
+    temperature: float
+    window: int | None = None          # draws whole windows of this many frames (None: any length)
+
+    @property
+    def conditions(self) -> str:
+        return {(False, False): "nothing", (True, False): "control", (False, True): "prefix",
+                (True, True): "prefix + control"}[(self.control, self.prefix)]
+
+
+ENTRIES = (Entry("vae", "VAE", "Motegi 2018", control=False, prefix=False, temperature=1.0, window=80),
+           Entry("lstm_control", "LSTM-3LR", "Habibie 2017 (baseline)", control=True, prefix=True, temperature=1.0),
+           Entry("vae_lstm", "VAE-LSTM", "Habibie 2017", control=True, prefix=False, temperature=1.0),
+           Entry("glow", "Glow", "Henter 2020 §3", control=True, prefix=False, temperature=0.5, window=80),
+           Entry("moglow", "MoGlow", "Henter 2020 §4", control=True, prefix=True, temperature=0.3),
+           Entry("dfn", "DFN", "Chen 2020", control=False, prefix=True, temperature=1.0))
+"""The models compared, in the course's order. Temperatures are the notebooks': MoGlow 0.3
+(notebook 06), Glow 0.5 (notebook 05), the others their model's own (1; the LSTM is
+deterministic)."""
+
+
+def load_models(entries=ENTRIES) -> dict[str, tuple[Entry, object]]:
+    """``{label: (entry, model)}`` for every entry whose checkpoint is shipped."""
+    shipped = set(pretrained.available())
+    return {e.label: (e, pretrained.load(e.name)) for e in entries if e.name in shipped}
+
+
+def respond(entry: Entry, model, control: np.ndarray, prefix: np.ndarray | None = None, n: int = 1,
+            seed: int = 0) -> np.ndarray:
+    """What ``model`` generates for ``control`` ``(frames, 3)`` or ``(n, frames, 3)`` and
+    ``prefix`` ``(n, k, 66)`` (data units), reading only what it conditions on: features
+    ``(n, frames, 66)``. A model that draws whole windows (``entry.window``) is asked for
+    ``frames`` only when that is its window."""
+    control = np.asarray(control, dtype=np.float64)
+    frames = control.shape[-2]
+    if entry.window is not None and frames != entry.window:
+        raise ValueError(f"control: {entry.label} draws windows of {entry.window} frames, got {frames}")
+    kwargs = {"n": n, "seed": seed, "temperature": entry.temperature}
+    if entry.control:
+        kwargs["control"] = control
+    elif entry.window is None:
+        kwargs["frames"] = frames
+    if entry.prefix:
+        if prefix is None:
+            raise ValueError(f"prefix: {entry.label} continues real frames; give (n, k, 66) of them")
+        kwargs["prefix"] = prefix
+    return model.generate(**kwargs).features
+
+
+def _nll(model, windows: np.ndarray) -> float:
+    """Test NLL in bits per frame, data units (flows only; NaN otherwise)."""
+    if not hasattr(model, "nll") or model.normalizer is None:
+        return float("nan")
+    normalised = torch.tensor(model.normalizer.normalize(windows), dtype=torch.float32)
+    normalised[..., [0, 2]] = 0.0                               # the hips' root-local x, z (constant)
+    return model.nll(normalised, model.normalizer)["bits/frame"]
+
+
+def test_rows(models: dict, windows: np.ndarray, seed: int = 0) -> dict[str, dict[str, float]]:
+    """The comparison table on held-out windows ``(n, TEST_WINDOW, 66)`` (data units).
+
+    Every model generates one sample per window: a model with a prefix continues the
+    window's first :data:`PREFIX_FRAMES` frames, a controlled one follows the window's
+    control, an unconditional one draws freely. Frames after the prefix are judged (3.5 s),
+    against the windows' own frames: ``stepping (m/s)``, ``leg swing (cm)``,
+    ``foot skating (cm/s)``, ``bone drift (%)`` (:func:`metrics.locomotion_report`, the
+    data's planted foot heights), ``pose error 1 s (cm)`` and ``pose error 3 s (cm)``
+    (root frame, :func:`metrics.errors_by_frame`; NaN for a model that sees neither control
+    nor prefix), ``test NLL (bits/frame)`` (flows; NaN otherwise), ``parameters`` and
+    ``training (min)`` of the shipped checkpoint. The data's own row comes first."""
+    windows = np.asarray(windows, dtype=np.float64)
+    judged = windows[:, PREFIX_FRAMES:]
+    rest = metrics.foot_rest_heights(to_positions(judged, FPS))
+
+    def row(features) -> dict[str, float]:
+        r = metrics.locomotion_report(features, FPS, rest)
+        return {"stepping (m/s)": r["stepping (m/s)"], "leg swing (cm)": 100 * r["leg swing (m)"],
+                "foot skating (cm/s)": 100 * r["foot skating (m/s)"], "bone drift (%)": 100 * r["bone drift"]}
+
+    rows = {"data": {**row(judged), "pose error 1 s (cm)": 0.0, "pose error 3 s (cm)": 0.0}}
+    for label, (entry, model) in models.items():
+        control, prefix = windows[..., N_POSE:], windows[:, :PREFIX_FRAMES]
+        if entry.prefix:                                    # it continues the prefix: generate the rest
+            out = respond(entry, model, control[:, PREFIX_FRAMES:], prefix, n=len(windows), seed=seed)
+        else:                                               # whole windows: judge the same frames
+            out = respond(entry, model, control, n=len(windows), seed=seed)[:, PREFIX_FRAMES:]
+        pose_error = metrics.errors_by_frame(out, judged, FPS)[0]
+        seen = entry.control or entry.prefix
+        rows[label] = {**row(out),
+                       "pose error 1 s (cm)": 100 * pose_error[int(FPS) - 1] if seen else float("nan"),
+                       "pose error 3 s (cm)": 100 * pose_error[int(3 * FPS) - 1] if seen else float("nan"),
+                       "test NLL (bits/frame)": _nll(model, windows),
+                       "parameters": float(sum(w.numel() for m in _modules(model) for w in m.parameters())),
+                       "training (min)": _training_minutes(model)}
+    return rows
+
+
+def _modules(model) -> list:
+    """The torch modules that hold a model's weights (Motegi's VAE is two: conv AE + VAE)."""
+    return [model.conv_ae, model.vae] if hasattr(model, "conv_ae") else [model]
+
+
+def _training_minutes(model) -> float:
+    """Minutes the shipped checkpoint trained: for Motegi's VAE, its conv AE's and its own."""
+    histories = [getattr(m, "history", None) for m in ([model] + _modules(model))]
+    seconds = {id(h): h.seconds for h in histories if h is not None}
+    return sum(seconds.values()) / 60 if seconds else float("nan")
+
+
+def _ramped(speed: float, seconds: float) -> np.ndarray:
+    """A straight path ``(frames + 1, 3)`` at ``speed`` m/s forward, from standing, reached
+    over :data:`experiments.RAMP_S` (the walk preset scaled)."""
+    walk = synthetic.preset_control("walk", seconds + 1.0 / FPS, FPS, ramp_s=experiments.RAMP_S)
+    return walk * (speed / walk[-1, 0])
+
+
+def speed_following(models: dict, speeds=SPEEDS, seconds: float = 10.0, n: int = 4,
+                    seed: int = 0) -> dict[str, np.ndarray]:
+    """Commanded forward speed against stepping: for each speed, ``n`` held-out bodies walk
+    a straight path at that speed (after :data:`PREFIX_FRAMES` frames of standing), and each
+    model gets the same path as they walked it (and their standing frames as its prefix).
+    Returns ``{"data": ..., label: ...}``, the stepping speed (m/s) from the 2nd second to the
+    end, averaged over the samples, ``(len(speeds),)``. A model that draws windows gets the
+    path's first window."""
+    result = {"data": []} | {label: [] for label in models}
+    for speed in speeds:
+        walks = experiments.walks(_ramped(speed, seconds), FPS, n, lead_frames=PREFIX_FRAMES)
+        prefix, truth = walks[:, :PREFIX_FRAMES], walks[:, PREFIX_FRAMES:]
+        result["data"].append(_late_stepping(truth))
+        for label, (entry, model) in models.items():
+            control = truth[0, :, N_POSE:] if entry.window is None else truth[0, :entry.window, N_POSE:]
+            result[label].append(_late_stepping(respond(entry, model, control, prefix, n=n, seed=seed)))
+    return {label: np.array(values) for label, values in result.items()}
+
+
+def _late_stepping(features: np.ndarray) -> float:
+    return float(metrics.stepping_by_second(features, FPS)[:, 1:].mean())
+
+
+def long_run(models: dict, seconds: float = 30.0, n: int = 4, chunk_s: float = 5.0,
+             seed: int = 0) -> dict[str, dict[str, np.ndarray]]:
+    """``seconds`` along the circle preset (walking at 1.2 m/s, turning), ``n`` samples,
+    for the models that generate any length (not those that draw windows), beside ``n``
+    held-out bodies on the same path. Per model and for ``"data"``, per ``chunk_s`` s:
+    ``"pose spread (m)"`` (:func:`metrics.pose_spread`, mean over samples), ``"bone drift
+    (%)"``; per frame ``"diversity (m)"`` (:func:`metrics.diversity` of the samples); and the
+    ``"samples"`` themselves, features ``(n, seconds * fps + 1, 66)``."""
+    walks = experiments.preset_walks("circle", seconds, FPS, n, lead_frames=PREFIX_FRAMES)
+    prefix, truth = walks[:, :PREFIX_FRAMES], walks[:, PREFIX_FRAMES:]
+    runs = {"data": truth}
+    for label, (entry, model) in models.items():
+        if entry.window is None:
+            runs[label] = respond(entry, model, truth[0, :, N_POSE:], prefix, n=n, seed=seed)
+    chunk = int(chunk_s * FPS)
+    result = {}
+    for label, features in runs.items():
+        positions = to_positions(features, FPS)
+        pieces = range(0, features.shape[1] - chunk + 1, chunk)
+        result[label] = {
+            "pose spread (m)": np.array([metrics.pose_spread(features[:, s:s + chunk]).mean() for s in pieces]),
+            "bone drift (%)": np.array([100 * metrics.bone_length_drift(positions[:, s:s + chunk]) for s in pieces]),
+            "diversity (m)": metrics.diversity(positions), "samples": features}
+    return result
+
+
+def generation_speed(models: dict, frames: int = 80, streams=(1, 64), seed: int = 0) -> dict[str, dict[int, float]]:
+    """Frames per second in all streams together, generating ``frames`` frames (the model's
+    window where it draws windows) for each number of ``streams``: best of two timings."""
+    walks = experiments.held_out_windows(PREFIX_FRAMES + frames, FPS, n_clips=2)[:1]
+    result = {}
+    for label, (entry, model) in models.items():
+        length = entry.window or frames
+        control, prefix = walks[0, PREFIX_FRAMES:PREFIX_FRAMES + length, N_POSE:], walks[:, :PREFIX_FRAMES]
+        result[label] = {}
+        for n in streams:
+            times = []
+            for _ in range(2):
+                began = time.perf_counter()
+                respond(entry, model, control, np.repeat(prefix, n, axis=0), n=n, seed=seed)
+                times.append(time.perf_counter() - began)
+            result[label][n] = n * length / min(times)
+    return result
+
+
+def _cell(value, digits: int = 1) -> str:
+    return "n/a" if value is None or not np.isfinite(value) else f"{value:,.{digits}f}"
+
+
+def table(models: dict, rows: dict, long: dict, speed: dict) -> str:
+    """The comparison as one Markdown table, the data's row first: :func:`test_rows`,
+    the last 5 s of :func:`long_run` (pose spread against the data's) and
+    :func:`generation_speed`."""
+    late_data = long["data"]["pose spread (m)"][-1]
+    lines = ["| | conditions on | weights | training (min) | test NLL (bits/frame) | pose error 1 s / 3 s (cm) "
+             "| stepping (m/s) | leg swing (cm) | foot skating (cm/s) | bone drift (%) "
+             "| 30-s run: pose spread, last 5 s / data's | frames/s, 1 stream | frames/s, 64 streams |",
+             "|" + "---|" * 13]
+    for label, r in rows.items():
+        measured = (f"| {r['stepping (m/s)']:.2f} | {r['leg swing (cm)']:.1f} | {r['foot skating (cm/s)']:.1f} "
+                    f"| {r['bone drift (%)']:.2f} ")
+        if label == "data":
+            lines.append(f"| **data** (held-out windows) | | | | | {measured}| 1 | | |")
+            continue
+        entry = models[label][0]
+        spread = long[label]["pose spread (m)"][-1] / late_data if label in long else None
+        lines.append(f"| **{label}** | {entry.conditions} | {r['parameters'] / 1e3:,.0f}k "
+                     f"| {_cell(r['training (min)'])} | {_cell(r['test NLL (bits/frame)'], 0)} "
+                     f"| {_cell(r['pose error 1 s (cm)'])} / {_cell(r['pose error 3 s (cm)'])} {measured}"
+                     f"| {_cell(spread, 2)} | {speed[label][1]:,.0f} | {speed[label][64]:,.0f} |")
+    return "\n".join(lines)

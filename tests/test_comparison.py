@@ -1,0 +1,74 @@
+"""motionlab.comparison: every shipped model on one test set (notebook 08)."""
+import numpy as np
+import pytest
+
+from motionlab import comparison, experiments
+from motionlab.models.base import Generated
+
+
+class Recorder:
+    """A stand-in model: remembers what it was given, returns zeros of the right shape."""
+
+    def __init__(self):
+        self.calls = []
+
+    def generate(self, **kwargs):
+        self.calls.append(kwargs)
+        frames = len(kwargs["control"]) if "control" in kwargs else kwargs.get("frames", 80)
+        return Generated(np.zeros((kwargs["n"], frames, 66)), np.zeros((kwargs["n"], frames, 21, 3)), fps=20.0)
+
+
+def entry(**changes):
+    base = dict(name="x", label="X", paper="", control=True, prefix=True, temperature=0.3)
+    return comparison.Entry(**{**base, **changes})
+
+
+def test_respond_gives_each_model_only_what_it_conditions_on():
+    control, prefix = np.zeros((40, 3)), np.zeros((2, 10, 66))
+    for control_in, prefix_in in ((True, True), (True, False), (False, True), (False, False)):
+        model = Recorder()
+        out = comparison.respond(entry(control=control_in, prefix=prefix_in), model, control, prefix, n=2, seed=3)
+        assert out.shape == (2, 40, 66)
+        call = model.calls[0]
+        assert ("control" in call) == control_in and ("prefix" in call) == prefix_in
+        assert ("frames" in call) == (not control_in) and call["temperature"] == 0.3 and call["seed"] == 3
+
+
+def test_respond_refuses_what_a_model_cannot_do():
+    with pytest.raises(ValueError, match="draws windows of 80 frames"):
+        comparison.respond(entry(window=80, prefix=False), Recorder(), np.zeros((40, 3)))
+    with pytest.raises(ValueError, match="prefix: X continues real frames"):
+        comparison.respond(entry(), Recorder(), np.zeros((40, 3)))
+
+
+def test_entries_say_what_each_model_conditions_on():
+    conditions = {e.label: e.conditions for e in comparison.ENTRIES}
+    assert conditions == {"VAE": "nothing", "LSTM-3LR": "prefix + control", "VAE-LSTM": "control",
+                          "Glow": "control", "MoGlow": "prefix + control", "DFN": "prefix"}
+
+
+@pytest.fixture(scope="module")
+def shipped():
+    models = comparison.load_models()
+    if len(models) < len(comparison.ENTRIES):
+        pytest.skip("not every checkpoint is shipped (make checkpoints)")
+    return models
+
+
+def test_the_table_on_a_few_held_out_windows(shipped):
+    windows = experiments.held_out_windows(comparison.TEST_WINDOW, comparison.FPS, n_clips=1)[:3]
+    rows = comparison.test_rows(shipped, windows)
+    assert list(rows) == ["data"] + [e.label for e in comparison.ENTRIES]
+    assert rows["data"]["bone drift (%)"] < 1e-6 and rows["data"]["stepping (m/s)"] > 0.3
+    assert np.isnan(rows["VAE"]["pose error 1 s (cm)"])                  # sees neither control nor prefix
+    assert all(np.isfinite(rows[label]["pose error 3 s (cm)"]) for label in ("MoGlow", "DFN", "VAE-LSTM"))
+    flows = {label for label, r in rows.items() if np.isfinite(r.get("test NLL (bits/frame)", np.nan))}
+    assert flows == {"Glow", "MoGlow"}
+    assert rows["DFN"]["bone drift (%)"] < 0.01                           # the joint-rotation decoder
+    long = comparison.long_run(shipped, seconds=10.0, n=2)
+    assert set(long) == {"data", "LSTM-3LR", "VAE-LSTM", "MoGlow", "DFN"}   # not the window models
+    assert long["MoGlow"]["samples"].shape == (2, 201, 66) and len(long["MoGlow"]["pose spread (m)"]) == 2
+    speed = {label: {1: 100.0, 64: 1000.0} for label in shipped}
+    lines = comparison.table(shipped, rows, long, speed).splitlines()
+    assert len(lines) == 2 + len(rows) and lines[2].startswith("| **data**")
+    assert all(line.count("|") == 14 for line in lines)
