@@ -338,7 +338,7 @@ def follows_speed(speeds, stepping, data_stepping, name: str = "model") -> Verdi
     verdict.figures["moving: mean |stepping - the data's| / the data's mean"] = error
     stopped = FOLLOWS_CONTROL["stopped (m/s)"]
     verdict.require(standing < stopped, f"told to stand, steps at {standing:.2f} m/s (need < {stopped:g})")
-    verdict.require(error <= STEADY_STEPPING, f"stepping is {100 * error:.1f} % off the data's on average "
+    verdict.require(error <= STEADY_STEPPING, f"stepping is {100 * error:.2f} % off the data's on average "
                                               f"(need <= {100 * STEADY_STEPPING:.0f} %)")
     return verdict
 

@@ -46,6 +46,7 @@ class Entry:
     prefix: bool                       # does it continue real frames?
     temperature: float
     window: int | None = None          # draws whole windows of this many frames (None: any length)
+    stochastic: bool = True            # False: the same answer for every seed (the LSTM)
 
     @property
     def conditions(self) -> str:
@@ -54,7 +55,8 @@ class Entry:
 
 
 ENTRIES = (Entry("vae", "VAE", "Motegi 2018", control=False, prefix=False, temperature=1.0, window=80),
-           Entry("lstm_control", "LSTM-3LR", "Habibie 2017 (baseline)", control=True, prefix=True, temperature=1.0),
+           Entry("lstm_control", "LSTM-3LR", "Habibie 2017 (baseline)", control=True, prefix=True, temperature=1.0,
+                 stochastic=False),
            Entry("vae_lstm", "VAE-LSTM", "Habibie 2017", control=True, prefix=False, temperature=1.0),
            Entry("glow", "Glow", "Henter 2020 §3", control=True, prefix=False, temperature=0.5, window=80),
            Entry("moglow", "MoGlow", "Henter 2020 §4", control=True, prefix=True, temperature=0.3),
@@ -135,9 +137,14 @@ def test_rows(models: dict, windows: np.ndarray, seed: int = 0) -> dict[str, dic
                        "pose error 1 s (cm)": 100 * pose_error[int(FPS) - 1] if seen else float("nan"),
                        "pose error 3 s (cm)": 100 * pose_error[int(3 * FPS) - 1] if seen else float("nan"),
                        "test NLL (bits/frame)": _nll(model, windows),
-                       "parameters": float(sum(w.numel() for m in _modules(model) for w in m.parameters())),
+                       "parameters": float(weights(model)),
                        "training (min)": _training_minutes(model)}
     return rows
+
+
+def weights(model) -> int:
+    """How many weights (parameters) a model has, all its parts counted."""
+    return sum(w.numel() for m in _modules(model) for w in m.parameters())
 
 
 def _modules(model) -> list:
@@ -205,6 +212,30 @@ def long_run(models: dict, seconds: float = 30.0, n: int = 4, chunk_s: float = 5
             "pose spread (m)": np.array([metrics.pose_spread(features[:, s:s + chunk]).mean() for s in pieces]),
             "bone drift (%)": np.array([100 * metrics.bone_length_drift(positions[:, s:s + chunk]) for s in pieces]),
             "diversity (m)": metrics.diversity(positions), "samples": features}
+    return result
+
+
+def walk_turn_stop(seconds: float = 10.0) -> np.ndarray:
+    """A drawn path ``(seconds * fps + 1, 3)``: walk off to 1.3 m/s over the first second,
+    turn left at 0.7 rad/s from 3 to 6 s, slow to a stop between 7 and 8.5 s."""
+    t = np.arange(int(round(seconds * FPS)) + 1) / FPS
+
+    def ramp(start, end):                                   # 0 -> 1 between two times
+        return np.clip((t - start) / (end - start), 0.0, 1.0)
+    return np.stack([1.3 * ramp(0, 1) * (1 - ramp(7, 8.5)), 0 * t, 0.7 * ramp(3, 3.5) * (1 - ramp(5.5, 6))], axis=1)
+
+
+def steer_all(models: dict, path: np.ndarray, seed: int = 0) -> dict[str, np.ndarray]:
+    """One held-out body walks the drawn ``path`` ``(frames, 3)`` after
+    :data:`PREFIX_FRAMES` frames of standing, and every model that follows a control and
+    runs for any length is given the path as the body walked it (and the standing frames
+    as its prefix). Returns ``{"data": ..., label: ...}``, features ``(frames, 66)``."""
+    body = experiments.walks(np.asarray(path, dtype=np.float64), FPS, n=1, lead_frames=PREFIX_FRAMES)
+    prefix, truth = body[:, :PREFIX_FRAMES], body[0, PREFIX_FRAMES:]
+    result = {"data": truth}
+    for label, (entry, model) in models.items():
+        if entry.control and entry.window is None:
+            result[label] = respond(entry, model, truth[:, N_POSE:], prefix, seed=seed)[0]
     return result
 
 

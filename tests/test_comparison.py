@@ -72,3 +72,13 @@ def test_the_table_on_a_few_held_out_windows(shipped):
     lines = comparison.table(shipped, rows, long, speed).splitlines()
     assert len(lines) == 2 + len(rows) and lines[2].startswith("| **data**")
     assert all(line.count("|") == 14 for line in lines)
+
+
+def test_one_drawn_path_for_every_controllable_model(shipped):
+    path = comparison.walk_turn_stop(10.0)
+    assert path.shape == (201, 3) and path[0].max() == 0 and np.abs(path[-1]).max() < 1e-9
+    assert path[:, 2].max() > 0.5 and path[:, 0].max() == pytest.approx(1.3)
+    steered = comparison.steer_all(shipped, path)
+    assert list(steered) == ["data", "LSTM-3LR", "VAE-LSTM", "MoGlow"]     # Glow draws windows; VAE, DFN: no control
+    assert all(features.shape == (201, 66) for features in steered.values())
+    np.testing.assert_allclose(steered["MoGlow"][:, -3:], steered["data"][:, -3:], atol=1e-4)   # the same path
