@@ -329,7 +329,7 @@ def comparison_tables() -> None:
     if not models:
         return
     windows = experiments.held_out_windows(comparison.TEST_WINDOW, comparison.FPS)
-    rows, long = comparison.test_rows(models, windows), comparison.long_run(models)
+    rows, long = comparison.table_rows(models, windows), comparison.long_run(models)
     print(f"\n## 7. All the shipped models side by side (notebook 08): {len(windows)} held-out windows, "
           f"{comparison.PREFIX_FRAMES} frames of prefix, 30-s runs along the circle; frames/s measured now\n")
     print(comparison.table(models, rows, long, comparison.generation_speed(models)))

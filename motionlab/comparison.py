@@ -7,7 +7,7 @@ Here each model is loaded with :func:`motionlab.pretrained.load` and asked throu
 * :data:`ENTRIES`: which models, what each conditions on (nothing, a control path, a
   prefix of real frames, or both) and the temperature it samples at (the notebooks').
 * :func:`respond`: one call that gives a model the control and/or the prefix it reads.
-* :func:`test_rows`: on held-out built-in windows (4 s), every model continues or follows
+* :func:`table_rows`: on held-out built-in windows (4 s), every model continues or follows
   each window; the table's measures (stepping, leg swing, skating, bone drift, pose error
   at 1 and 3 s, test NLL where the model has one) beside the data's own row.
 * :func:`speed_following`: constant forward speeds commanded for 10 s; how fast the feet
@@ -99,11 +99,11 @@ def _nll(model, windows: np.ndarray) -> float:
     if not hasattr(model, "nll") or model.normalizer is None:
         return float("nan")
     normalised = torch.tensor(model.normalizer.normalize(windows), dtype=torch.float32)
-    normalised[..., [0, 2]] = 0.0                               # the hips' root-local x, z (constant)
+    normalised[..., list(model.config.constant_features)] = 0.0     # the hips' root-local x, z: exactly 0
     return model.nll(normalised, model.normalizer)["bits/frame"]
 
 
-def test_rows(models: dict, windows: np.ndarray, seed: int = 0) -> dict[str, dict[str, float]]:
+def table_rows(models: dict, windows: np.ndarray, seed: int = 0) -> dict[str, dict[str, float]]:
     """The comparison table on held-out windows ``(n, TEST_WINDOW, 66)`` (data units).
 
     Every model generates one sample per window: a model with a prefix continues the
@@ -263,7 +263,7 @@ def _cell(value, digits: int = 1) -> str:
 
 
 def table(models: dict, rows: dict, long: dict, speed: dict) -> str:
-    """The comparison as one Markdown table, the data's row first: :func:`test_rows`,
+    """The comparison as one Markdown table, the data's row first: :func:`table_rows`,
     the last 5 s of :func:`long_run` (pose spread against the data's) and
     :func:`generation_speed`."""
     late_data = long["data"]["pose spread (m)"][-1]

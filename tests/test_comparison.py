@@ -57,7 +57,7 @@ def shipped():
 
 def test_the_table_on_a_few_held_out_windows(shipped):
     windows = experiments.held_out_windows(comparison.TEST_WINDOW, comparison.FPS, n_clips=1)[:3]
-    rows = comparison.test_rows(shipped, windows)
+    rows = comparison.table_rows(shipped, windows)
     assert list(rows) == ["data"] + [e.label for e in comparison.ENTRIES]
     assert rows["data"]["bone drift (%)"] < 1e-6 and rows["data"]["stepping (m/s)"] > 0.3
     assert np.isnan(rows["VAE"]["pose error 1 s (cm)"])                  # sees neither control nor prefix
