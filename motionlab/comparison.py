@@ -7,8 +7,8 @@ Here each model is loaded with :func:`motionlab.pretrained.load` and asked throu
 * :data:`ENTRIES`: which models, what each conditions on (nothing, a control path, a
   prefix of real frames, or both) and the temperature it samples at (the notebooks').
 * :func:`respond`: one call that gives a model the control and/or the prefix it reads.
-* :func:`table_rows`: on held-out built-in windows (4 s), every model continues or follows
-  each window; the table's measures (stepping, leg swing, skating, bone drift, pose error
+* :func:`held_out_samples` and :func:`table_rows`: on held-out built-in windows (4 s),
+  every model continues or follows each window; the table's measures (stepping, leg swing, skating, bone drift, pose error
   at 1 and 3 s, test NLL where the model has one) beside the data's own row.
 * :func:`speed_following`: constant forward speeds commanded for 10 s; how fast the feet
   step, against the data's bodies on the same paths.
@@ -125,12 +125,8 @@ def table_rows(models: dict, windows: np.ndarray, seed: int = 0) -> dict[str, di
                 "foot skating (cm/s)": 100 * r["foot skating (m/s)"], "bone drift (%)": 100 * r["bone drift"]}
 
     rows = {"data": {**row(judged), "pose error 1 s (cm)": 0.0, "pose error 3 s (cm)": 0.0}}
-    for label, (entry, model) in models.items():
-        control, prefix = windows[..., N_POSE:], windows[:, :PREFIX_FRAMES]
-        if entry.prefix:                                    # it continues the prefix: generate the rest
-            out = respond(entry, model, control[:, PREFIX_FRAMES:], prefix, n=len(windows), seed=seed)
-        else:                                               # whole windows: judge the same frames
-            out = respond(entry, model, control, n=len(windows), seed=seed)[:, PREFIX_FRAMES:]
+    for label, out in held_out_samples(models, windows, seed).items():
+        entry, model = models[label]
         pose_error = metrics.errors_by_frame(out, judged, FPS)[0]
         seen = entry.control or entry.prefix
         rows[label] = {**row(out),
@@ -145,6 +141,23 @@ def table_rows(models: dict, windows: np.ndarray, seed: int = 0) -> dict[str, di
 def weights(model) -> int:
     """How many weights (parameters) a model has, all its parts counted."""
     return sum(w.numel() for m in _modules(model) for w in m.parameters())
+
+
+def held_out_samples(models: dict, windows: np.ndarray, seed: int = 0) -> dict[str, np.ndarray]:
+    """One sample per held-out window ``(n, TEST_WINDOW, 66)`` from every model, as
+    :func:`table_rows` judges them: ``{label: features (n, TEST_WINDOW - PREFIX_FRAMES, 66)}``,
+    the frames after the prefix (a model with a prefix continues the window's first
+    :data:`PREFIX_FRAMES` frames; the others draw the whole window, given its control if
+    they take one)."""
+    windows = np.asarray(windows, dtype=np.float64)
+    control, prefix = windows[..., N_POSE:], windows[:, :PREFIX_FRAMES]
+    samples = {}
+    for label, (entry, model) in models.items():
+        if entry.prefix:                                    # it continues the prefix: generate the rest
+            samples[label] = respond(entry, model, control[:, PREFIX_FRAMES:], prefix, n=len(windows), seed=seed)
+        else:                                               # whole windows: judge the same frames
+            samples[label] = respond(entry, model, control, n=len(windows), seed=seed)[:, PREFIX_FRAMES:]
+    return samples
 
 
 def _modules(model) -> list:
