@@ -3,9 +3,10 @@
     python benchmarks/training_speed.py [--threads 2] [--batch 32] [--rounds 3] [--steps 5]
     python benchmarks/training_speed.py --rounds 5 --steps 10     # the README's table
 
-One training step is what ``motionlab.training.train`` does per batch: the loss (under
-``torch.autocast(dtype=torch.bfloat16)`` for ``--precision bf16``), the backward pass,
-gradient clipping at 1 and a fused Adam step (``training.adam``). Batches of ``--batch``
+One training step is what ``motionlab.training.train`` does per batch: the loss (for the
+bf16 column under ``torch.autocast(dtype=torch.bfloat16)``, as ``--precision bf16``
+trains), the backward pass, gradient clipping at 1 and a fused Adam step (what
+``training.adam`` picks on the CPU). Batches of ``--batch``
 windows of random normalised features, of each model's default (laptop) window; DFN is
 timed in each of its three stages (§5.6). The two precisions run in interleaved rounds on
 the same model, and the table gives each one's median over the rounds, so that a busy
@@ -81,6 +82,8 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=5, help="timed steps per round")
     args = parser.parse_args()
     torch.set_num_threads(args.threads)
+    # written out rather than models.base.native_bfloat16(): older checkouts, timed through
+    # PYTHONPATH, do not have it (nor training.adam's choice, hence the fused Adam above)
     native = torch.backends.mkldnn.is_available() and torch.ops.mkldnn._is_mkldnn_bf16_supported()
     print(f"torch {torch.__version__}, {args.threads} threads, batch {args.batch}, median of {args.rounds} "
           f"interleaved rounds of {args.steps} steps; motionlab from {Path(motionlab.__file__).parent}; "

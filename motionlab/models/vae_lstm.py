@@ -336,9 +336,9 @@ class VAELSTM(GenerativeModel, nn.Module):
         previous = latents[:, 0]
         states = []
         for s in range(steps):
-            # test time: the drive is c_{s-1}, and z_1 (= c_0) at the first step
-            drive = driven[:, s] if driven is not None else self.cell.W_c(previous)
-            previous = self.cell.step(previous, drive, *(term[:, s] for term in from_control))
+            # W_c drive: z_s in training; at test time c_{s-1}, and z_1 (= c_0) at the first step
+            driven_now = driven[:, s] if driven is not None else self.cell.W_c(previous)
+            previous = self.cell.step(previous, driven_now, *(term[:, s] for term in from_control))
             states.append(previous)
         return torch.stack(states, dim=1)                      # m_c = [c_1 || ... || c_S]
 
