@@ -29,7 +29,9 @@ temperatures, against the targets of motion like the data (built-in data only); 
 training data: the §6.3 claim (diversity that grows to the data's band, the data's share of
 running, no freezing) and bone drift with the §5.1 rotation decoder (built-in data only);
 (7) every shipped model side by side, notebook 08's table from the same functions
-(``motionlab.comparison``), and stepping at commanded speeds (built-in data only).
+(``motionlab.comparison``), and stepping at commanded speeds (built-in bodies and paths); with
+``--data`` the table shows the *shipped* models (trained on built-in clips) on 4-s windows of
+the folder's clips, as notebook 08 does with ``MOTIONLAB_DATA`` set.
 """
 from __future__ import annotations
 
@@ -195,7 +197,7 @@ def main(argv: list[str] | None = None) -> None:
         glow_table(models, truth)
         moglow_tables(models)
         dfn_table(models)
-        comparison_tables()
+    comparison_tables(args.data)
 
 
 def glow_table(models: dict, truth: np.ndarray) -> None:
@@ -323,16 +325,21 @@ def dfn_table(models: dict) -> None:
           f"it), bone drift {100 * f['bone drift']:.4f} % (target <= 0.5 %)")
     print(f"§6.3, futures diversify like the data: {verdict_line(verdict)}")
 
-def comparison_tables() -> None:
-    """Section 7: every shipped model on one test set, notebook 08's table and its claim."""
+def comparison_tables(source: str = "synthetic") -> None:
+    """Section 7: every shipped model on one test set, notebook 08's table and its claim.
+    With a folder: the *shipped* models (trained on built-in clips) on its clips, as
+    notebook 08 shows them with ``MOTIONLAB_DATA`` set."""
     models = comparison.load_models()
     if not models:
         return
-    windows = experiments.held_out_windows(comparison.TEST_WINDOW, comparison.FPS)
+    windows = comparison.evaluation_windows(source)
     rows, long = comparison.table_rows(models, windows), comparison.long_run(models)
-    print(f"\n## 7. All the shipped models side by side (notebook 08): {len(windows)} held-out windows, "
-          f"{comparison.PREFIX_FRAMES} frames of prefix, 30-s runs along the circle; frames/s measured now\n")
-    print(comparison.table(models, rows, long, comparison.generation_speed(models)))
+    where = "held-out windows" if source == "synthetic" else \
+        f"windows of 4 s (one every second) of the clips in {source}, shipped models (trained on built-in clips)"
+    print(f"\n## 7. All the shipped models side by side (notebook 08): {len(windows)} {where}; "
+          f"{comparison.PREFIX_FRAMES} frames of prefix, 30-s runs along the built-in circle; frames/s measured now\n")
+    label = "held-out windows" if source == "synthetic" else "real windows"
+    print(comparison.table(models, rows, long, comparison.generation_speed(models), data_label=label))
     following = comparison.speed_following(models)
     print("\nstepping (m/s) at the commanded speeds " + ", ".join(f"{v:g}" for v in comparison.SPEEDS) + " m/s:")
     for label, stepping in following.items():

@@ -6,6 +6,8 @@ Here each model is loaded with :func:`motionlab.pretrained.load` and asked throu
 
 * :data:`ENTRIES`: which models, what each conditions on (nothing, a control path, a
   prefix of real frames, or both) and the temperature it samples at (the notebooks').
+* :func:`evaluation_windows`: the test set: 4-s windows of held-out built-in clips, or of every
+  clip in a folder of real motion capture (the shipped models never saw real data).
 * :func:`respond`: one call that gives a model the control and/or the prefix it reads.
 * :func:`held_out_samples` and :func:`table_rows`: on held-out built-in windows (4 s),
   every model continues or follows each window; the table's measures (stepping, leg swing, skating, bone drift, pose error
@@ -25,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
-from . import experiments, metrics, pretrained, synthetic
+from . import data, experiments, metrics, pretrained, synthetic
 from .representation import N_POSE, to_positions
 
 FPS = 20.0
@@ -64,6 +66,31 @@ ENTRIES = (Entry("vae", "VAE", "Motegi 2018", control=False, prefix=False, tempe
 """The models compared, in the course's order. Temperatures are the notebooks': MoGlow 0.3
 (notebook 06), Glow 0.5 (notebook 05), the others their model's own (1; the LSTM is
 deterministic)."""
+
+
+def evaluation_windows(source: str = "synthetic", stride_s: float = 1.0) -> np.ndarray:
+    """The comparison's test set: features ``(windows, TEST_WINDOW, 66)`` in data units.
+
+    ``"synthetic"``: :func:`motionlab.experiments.held_out_windows` (built-in clips seeded
+    from 10,000, which no shipped model was trained on). A folder of motion capture (``.bvh``
+    / ``.amc``, read by :func:`motionlab.data.load` at :data:`FPS`): every clip of at least
+    4 s cut into 4-s windows starting every ``stride_s`` seconds. All of a folder's clips
+    are test clips here, because the shipped checkpoints were trained on built-in clips
+    only. Raises ``ValueError`` when no clip is long enough."""
+    if source == "synthetic":
+        return experiments.held_out_windows(TEST_WINDOW, FPS)
+    if not (isinstance(stride_s, (int, float)) and 0 < stride_s <= 60):
+        raise ValueError(f"stride_s: expected seconds in (0, 60], got {stride_s!r}")
+    stride = max(1, round(stride_s * FPS))
+    clips = data.load(source, fps=FPS)
+    windows = [data.cut_windows(clip.features(), TEST_WINDOW, stride) for clip in clips]
+    windows = [w for w in windows if len(w)]
+    if not windows:
+        longest = max(len(clip.features()) for clip in clips) / FPS
+        raise ValueError(f"{source}: no clip lasts the {TEST_WINDOW / FPS:g} s of a test window "
+                         f"(the longest: {longest:.2f} s)")
+    return np.concatenate(windows).astype(np.float64)
+
 
 
 def load_models(entries=ENTRIES) -> dict[str, tuple[Entry, object]]:
@@ -275,10 +302,11 @@ def _cell(value, digits: int = 1) -> str:
     return "n/a" if value is None or not np.isfinite(value) else f"{value:,.{digits}f}"
 
 
-def table(models: dict, rows: dict, long: dict, speed: dict) -> str:
-    """The comparison as one Markdown table, the data's row first: :func:`table_rows`,
-    the last 5 s of :func:`long_run` (pose spread against the data's) and
-    :func:`generation_speed`."""
+def table(models: dict, rows: dict, long: dict, speed: dict, data_label: str = "held-out windows") -> str:
+    """The comparison as one Markdown table, the data's row first (``data_label`` says
+    which windows): :func:`table_rows`, the last 5 s of :func:`long_run` (pose spread
+    against the data's: the built-in bodies on the same circle, hence 1 in the data's row)
+    and :func:`generation_speed`."""
     late_data = long["data"]["pose spread (m)"][-1]
     lines = ["| | conditions on | weights | training (min) | test NLL (bits/frame) | pose error 1 s / 3 s (cm) "
              "| stepping (m/s) | leg swing (cm) | foot skating (cm/s) | bone drift (%) "
@@ -288,7 +316,7 @@ def table(models: dict, rows: dict, long: dict, speed: dict) -> str:
         measured = (f"| {r['stepping (m/s)']:.2f} | {r['leg swing (cm)']:.1f} | {r['foot skating (cm/s)']:.1f} "
                     f"| {r['bone drift (%)']:.2f} ")
         if label == "data":
-            lines.append(f"| **data** (held-out windows) | | | | | {measured}| 1 | | |")
+            lines.append(f"| **data** ({data_label}) | | | | | {measured}| 1 | | |")
             continue
         entry = models[label][0]
         spread = long[label]["pose spread (m)"][-1] / late_data if label in long else None

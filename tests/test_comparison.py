@@ -2,8 +2,11 @@
 import numpy as np
 import pytest
 
-from motionlab import comparison, experiments
+from motionlab import comparison, data, experiments
 from motionlab.models.base import Generated
+
+from conftest import CMU_DIR, requires_cmu
+from test_data import cmu_like_bvh
 
 
 class Recorder:
@@ -45,6 +48,31 @@ def test_entries_say_what_each_model_conditions_on():
     conditions = {e.label: e.conditions for e in comparison.ENTRIES}
     assert conditions == {"VAE": "nothing", "LSTM-3LR": "prefix + control", "VAE-LSTM": "control",
                           "Glow": "control", "MoGlow": "prefix + control", "DFN": "prefix"}
+
+
+def test_evaluation_windows_cut_every_clip_of_a_folder_and_refuse_short_ones(tmp_path):
+    np.testing.assert_array_equal(comparison.evaluation_windows("synthetic"),
+                                  experiments.held_out_windows(comparison.TEST_WINDOW, comparison.FPS))
+    cmu_like_bvh(tmp_path / "long.bvh", frames=600)        # 5 s at 120 fps: 100 frames at 20 fps
+    cmu_like_bvh(tmp_path / "short.bvh", frames=300)       # 2.5 s: no 4-s window
+    windows = comparison.evaluation_windows(str(tmp_path), stride_s=1.0)
+    long = data.load(tmp_path / "long.bvh", fps=comparison.FPS)[0].features()
+    assert windows.shape == (2, comparison.TEST_WINDOW, 66)           # starts at 0 and 1 s
+    np.testing.assert_allclose(windows[1], long[20:100])
+    (tmp_path / "long.bvh").unlink()
+    with pytest.raises(ValueError, match="no clip lasts the 4 s of a test window"):
+        comparison.evaluation_windows(str(tmp_path))
+    with pytest.raises(ValueError, match="stride_s"):
+        comparison.evaluation_windows(str(tmp_path), stride_s=0)
+
+
+@requires_cmu
+def test_evaluation_windows_of_the_real_cmu_clips():
+    clips = data.load(CMU_DIR, fps=comparison.FPS)
+    windows = comparison.evaluation_windows(str(CMU_DIR))
+    expected = sum(max(0, (len(c.features()) - comparison.TEST_WINDOW) // 20 + 1) for c in clips)
+    assert windows.shape == (expected, comparison.TEST_WINDOW, 66) and expected > 0
+    assert np.isfinite(windows).all()
 
 
 @pytest.fixture(scope="module")
