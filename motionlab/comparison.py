@@ -92,7 +92,6 @@ def evaluation_windows(source: str = "synthetic", stride_s: float = 1.0) -> np.n
     return np.concatenate(windows).astype(np.float64)
 
 
-
 def load_models(entries=ENTRIES) -> dict[str, tuple[Entry, object]]:
     """``{label: (entry, model)}`` for every entry whose checkpoint is shipped."""
     shipped = set(pretrained.available())
