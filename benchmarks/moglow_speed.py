@@ -1,6 +1,7 @@
 """MoGlow speed against the machine's own limits: training steps, one stream, 64 streams.
 
     python benchmarks/moglow_speed.py [--threads 2] [--frames 100] [--skip-paper-training] [--nll-epochs 10]
+    python benchmarks/moglow_speed.py --compare ADAPTER.py [--rounds 4]   # beside another implementation
 
 For the laptop configuration and the paper's (§5.2: K = 16 steps, 2 LSTM layers of 512
 units, τ = 10) it prints, in float32 and in bfloat16:
@@ -30,14 +31,24 @@ NLLs: bfloat16 must follow float32 within ``NLL_TOLERANCE`` bits per frame.
 
 The speed measurements use untrained weights: speed does not depend on their values. Run
 it on a quiet machine; the figures vary by 10-20 % from run to run on a shared one.
+
+``--compare ADAPTER.py`` instead times another MoGlow implementation beside motionlab's,
+float32, at the laptop and the paper sizes: a training step (100 windows of 80 frames), one
+stream and 64 streams, in ``--rounds`` interleaved rounds (the median is printed). The
+other implementation is reached through an adapter file you write; its contract, and an
+adapter for motionlab itself (which must come out even), are in
+``benchmarks/compare_motionlab.py``. motionlab's side goes through that adapter too.
 """
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import multiprocessing
 import resource
+import statistics
 import time
 from contextlib import nullcontext
+from pathlib import Path
 
 import numpy as np
 import torch
@@ -185,6 +196,77 @@ def precision_trajectory(epochs: int, clips: int) -> None:
           f"(the curves fall by {fp32_curve[0] - fp32_curve[-1]:.0f}).")
 
 
+def load_adapter(path: str | Path):
+    """The adapter module at ``path`` (a Python file the user names on the command line),
+    checked to define ``training_step`` and ``streaming_step``."""
+    path = Path(path)
+    if not path.is_file() or path.suffix != ".py":
+        raise ValueError(f"--compare: expected a Python file (an adapter, see benchmarks/compare_motionlab.py), "
+                         f"got {str(path)!r}")
+    spec = importlib.util.spec_from_file_location(f"moglow_speed_adapter_{path.stem}", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    missing = [name for name in ("training_step", "streaming_step") if not callable(getattr(module, name, None))]
+    if missing:
+        raise ValueError(f"{path}: an adapter defines training_step and streaming_step "
+                         f"(see benchmarks/compare_motionlab.py); missing: {', '.join(missing)}")
+    return module
+
+
+def compare(other, configs: dict, rounds: int = 4, frames: int = 100, trained=None) -> list[dict]:
+    """Time the adapter ``other`` beside motionlab (through ``compare_motionlab.py``) for each
+    of ``configs`` (``{name: MoGlowConfig}``), float32: seconds of a training step (100
+    windows of 80 frames; only for the names in ``trained``, default all), frames per second
+    of one stream (``frames`` frames) and of 64 (``frames // 5``), each the median of
+    ``rounds`` interleaved rounds. Returns one row a
+    measure: ``config``, ``measure``, ``other``, ``motionlab``, ``unit`` and ``speed-up``
+    (motionlab against the other: above 1, motionlab is faster)."""
+    ours = load_adapter(Path(__file__).with_name("compare_motionlab.py"))
+    sides = {"other": other, "motionlab": ours}
+    rows = []
+    for name, config in configs.items():
+        measures = {}
+        if trained is None or name in trained:
+            batch, length = TRAIN_BATCH, config.history + TRAIN_FRAMES
+            measures["training step"] = ("s", {side: module.training_step(config, batch, length)
+                                               for side, module in sides.items()}, None)
+        for streams, count in ((1, frames), (CROWD, max(10, frames // 5))):
+            measures[f"{streams} stream{'s' if streams > 1 else ''}"] = (
+                "frames/s", {side: module.streaming_step(config, streams) for side, module in sides.items()},
+                (streams, count))
+        for measure, (unit, work, streaming) in measures.items():
+            results = {side: [] for side in sides}
+            for round_ in range(rounds):
+                order = list(work.items()) if round_ % 2 == 0 else list(work.items())[::-1]   # who goes first alternates
+                for side, step in order:
+                    if streaming is None:
+                        results[side].append(best_time(step, 1))
+                    else:
+                        streams, count = streaming
+                        control = torch.zeros(streams, 3)
+                        for _ in range(3):                      # warm-up
+                            step(control)
+                        began = time.perf_counter()
+                        for _ in range(count):
+                            step(control)
+                        results[side].append(streams * count / (time.perf_counter() - began))
+            theirs, mine = (statistics.median(results[side]) for side in ("other", "motionlab"))
+            speedup = theirs / mine if streaming is None else mine / theirs
+            rows.append({"config": name, "measure": measure, "other": theirs, "motionlab": mine, "unit": unit,
+                         "speed-up": speedup})
+    return rows
+
+
+def print_comparison(rows: list[dict], adapter: str, rounds: int) -> None:
+    print(f"motionlab beside {adapter}, float32, median of {rounds} interleaved rounds:\n")
+    print("| config | measure | other | motionlab | motionlab's speed-up |")
+    print("|---|---|---|---|---|")
+    for r in rows:
+        digits = 2 if r["unit"] == "s" else 0
+        print(f"| {r['config']} | {r['measure']} ({r['unit']}) | {r['other']:,.{digits}f} "
+              f"| {r['motionlab']:,.{digits}f} | {r['speed-up']:.2f}x |")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--threads", type=int, default=2)
@@ -194,10 +276,24 @@ def main() -> None:
     parser.add_argument("--nll-epochs", type=int, default=10,
                         help="epochs of the float32 / bfloat16 NLL comparison (0: skip it)")
     parser.add_argument("--nll-clips", type=int, default=100, help="built-in clips for that comparison")
+    parser.add_argument("--compare", metavar="ADAPTER.py",
+                        help="time another implementation through this adapter (see compare_motionlab.py) instead")
+    parser.add_argument("--rounds", type=int, default=4, help="interleaved rounds of --compare")
     args = parser.parse_args()
+    if args.rounds < 1:
+        parser.error("--rounds: expected 1 or more")
     torch.set_num_threads(args.threads)
     print(f"torch {torch.__version__}, {args.threads} threads, CPU capability "
           f"{torch.backends.cpu.get_cpu_capability()}, native bfloat16 products: {native_bfloat16()}\n")
+    if args.compare:
+        try:
+            other = load_adapter(args.compare)
+        except ValueError as error:
+            parser.error(str(error))
+        configs = {"laptop": MoGlowConfig(), "paper (§5.2)": MoGlowConfig.paper()}
+        trained = ("laptop",) if args.skip_paper_training else None
+        print_comparison(compare(other, configs, args.rounds, args.frames, trained), args.compare, args.rounds)
+        return
     limits = machine_limits()
     print("This machine, measured: " + ", ".join(f"{name} {value:.1f}" for name, value in limits.items()) + "\n")
 

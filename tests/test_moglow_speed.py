@@ -1,0 +1,38 @@
+"""benchmarks/moglow_speed.py --compare: another implementation timed beside motionlab's."""
+import importlib.util
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from motionlab.models.moglow import MoGlowConfig
+
+BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
+
+
+def speed_script():
+    spec = importlib.util.spec_from_file_location("moglow_speed", BENCHMARKS / "moglow_speed.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_compare_times_an_adapter_beside_motionlab():
+    speed = speed_script()
+    adapter = speed.load_adapter(BENCHMARKS / "compare_motionlab.py")
+    rows = speed.compare(adapter, {"tiny": MoGlowConfig(steps=2, hidden=8)}, rounds=1, frames=3)
+    assert [(r["config"], r["measure"], r["unit"]) for r in rows] == [
+        ("tiny", "training step", "s"), ("tiny", "1 stream", "frames/s"), ("tiny", "64 streams", "frames/s")]
+    assert all(r["other"] > 0 and r["motionlab"] > 0 and np.isfinite(r["speed-up"]) for r in rows)
+    untrained = speed.compare(adapter, {"tiny": MoGlowConfig(steps=2, hidden=8)}, rounds=1, frames=3, trained=())
+    assert [r["measure"] for r in untrained] == ["1 stream", "64 streams"]
+
+
+def test_an_adapter_must_be_a_python_file_with_both_functions(tmp_path):
+    speed = speed_script()
+    with pytest.raises(ValueError, match="expected a Python file"):
+        speed.load_adapter(tmp_path / "adapter.txt")
+    half = tmp_path / "half.py"
+    half.write_text("def training_step(config, batch, frames):\n    return lambda: None\n")
+    with pytest.raises(ValueError, match="half.py: an adapter defines .* missing: streaming_step"):
+        speed.load_adapter(half)
