@@ -17,8 +17,8 @@ root's motion.
 A second table looks at the planted feet alone (foot joints whose contact weight,
 ``metrics.foot_contact_weights``, is above 0.9), in the world: the share of frames they are
 planted, their mean speed, and how much of it is a steady glide (the length of each
-window's mean velocity of each planted foot joint) rather than a wobble about one place. The flows are also measured at temperature 0 (their most likely
-motion, no sampling noise).
+window's mean velocity of each planted foot joint) rather than a wobble about one place.
+The flows are also measured at temperature 0 (their most likely motion, no sampling noise).
 """
 from __future__ import annotations
 
