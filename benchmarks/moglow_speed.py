@@ -158,12 +158,18 @@ def sampling_fps(config: MoGlowConfig, streams: int, frames: int, weights=torch.
     model.eval()
     stream = model.stream(windows(streams, config.history), temperature=0.8,
                           generator=torch.Generator().manual_seed(0), weights=weights)
+    return streaming_rate(stream.step, streams, frames)
+
+
+def streaming_rate(step, streams: int, frames: int) -> float:
+    """Frames per second of ``step`` (control ``(streams, 3)`` -> the next frame of every
+    stream) over ``frames`` calls, after three untimed ones, counting every stream's frame."""
     control = torch.zeros(streams, 3)
     for _ in range(3):                                 # warm-up
-        stream.step(control)
+        step(control)
     began = time.perf_counter()
     for _ in range(frames):
-        stream.step(control)
+        step(control)
     return streams * frames / (time.perf_counter() - began)
 
 
@@ -218,9 +224,9 @@ def compare(other, configs: dict, rounds: int = 4, frames: int = 100, trained=No
     of ``configs`` (``{name: MoGlowConfig}``), float32: seconds of a training step (100
     windows of 80 frames; only for the names in ``trained``, default all), frames per second
     of one stream (``frames`` frames) and of 64 (``frames // 5``), each the median of
-    ``rounds`` interleaved rounds. Returns one row a
-    measure: ``config``, ``measure``, ``other``, ``motionlab``, ``unit`` and ``speed-up``
-    (motionlab against the other: above 1, motionlab is faster)."""
+    ``rounds`` interleaved rounds. Returns one row a measure: ``config``, ``measure``,
+    ``other``, ``motionlab``, ``unit`` and ``speed-up`` (motionlab against the other: above
+    1, motionlab is faster)."""
     ours = load_adapter(Path(__file__).with_name("compare_motionlab.py"))
     sides = {"other": other, "motionlab": ours}
     rows = []
@@ -239,17 +245,8 @@ def compare(other, configs: dict, rounds: int = 4, frames: int = 100, trained=No
             for round_ in range(rounds):
                 order = list(work.items()) if round_ % 2 == 0 else list(work.items())[::-1]   # who goes first alternates
                 for side, step in order:
-                    if streaming is None:
-                        results[side].append(best_time(step, 1))
-                    else:
-                        streams, count = streaming
-                        control = torch.zeros(streams, 3)
-                        for _ in range(3):                      # warm-up
-                            step(control)
-                        began = time.perf_counter()
-                        for _ in range(count):
-                            step(control)
-                        results[side].append(streams * count / (time.perf_counter() - began))
+                    results[side].append(best_time(step, 1) if streaming is None
+                                         else streaming_rate(step, *streaming))
             theirs, mine = (statistics.median(results[side]) for side in ("other", "motionlab"))
             speedup = theirs / mine if streaming is None else mine / theirs
             rows.append({"config": name, "measure": measure, "other": theirs, "motionlab": mine, "unit": unit,

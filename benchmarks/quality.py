@@ -334,11 +334,13 @@ def comparison_tables(source: str = "synthetic") -> None:
         return
     windows = comparison.evaluation_windows(source)
     rows, long = comparison.table_rows(models, windows), comparison.long_run(models)
-    where = "held-out windows" if source == "synthetic" else \
-        f"windows of 4 s (one every second) of the clips in {source}, shipped models (trained on built-in clips)"
+    if source == "synthetic":
+        where, label = "held-out windows", "held-out windows"
+    else:
+        where = f"windows of 4 s (one every second) of the clips in {source}, shipped models (trained on built-in clips)"
+        label = "real windows"
     print(f"\n## 7. All the shipped models side by side (notebook 08): {len(windows)} {where}; "
           f"{comparison.PREFIX_FRAMES} frames of prefix, 30-s runs along the built-in circle; frames/s measured now\n")
-    label = "held-out windows" if source == "synthetic" else "real windows"
     print(comparison.table(models, rows, long, comparison.generation_speed(models), data_label=label))
     following = comparison.speed_following(models)
     print("\nstepping (m/s) at the commanded speeds " + ", ".join(f"{v:g}" for v in comparison.SPEEDS) + " m/s:")
