@@ -10,8 +10,9 @@ Here each model is loaded with :func:`motionlab.pretrained.load` and asked throu
   clip in a folder of real motion capture (the shipped models never saw real data).
 * :func:`respond`: one call that gives a model the control and/or the prefix it reads.
 * :func:`held_out_samples` and :func:`table_rows`: on held-out built-in windows (4 s),
-  every model continues or follows each window; the table's measures (stepping, leg swing, skating, bone drift, pose error
-  at 1 and 3 s, test NLL where the model has one) beside the data's own row.
+  every model continues or follows each window; the table's measures (stepping, leg swing,
+  skating, bone drift, pose error at 1 and 3 s, test NLL where the model has one or the
+  VAEs' bound on it) beside the data's own row.
 * :func:`speed_following`: constant forward speeds commanded for 10 s; how fast the feet
   step, against the data's bodies on the same paths.
 * :func:`long_run`: 30 s along a circle: pose spread, bone drift and diversity over time.
@@ -28,6 +29,7 @@ import numpy as np
 import torch
 
 from . import data, experiments, metrics, pretrained, synthetic
+from .models.moglow import MoGlowConfig
 from .representation import N_POSE, to_positions
 
 FPS = 20.0
@@ -120,13 +122,27 @@ def respond(entry: Entry, model, control: np.ndarray, prefix: np.ndarray | None 
     return model.generate(**kwargs).features
 
 
-def _nll(model, windows: np.ndarray) -> float:
-    """Test NLL in bits per frame, data units (flows only; NaN otherwise)."""
-    if not hasattr(model, "nll") or model.normalizer is None:
-        return float("nan")
+SCORED_POSE = tuple(i for i in range(N_POSE) if i not in MoGlowConfig().constant_features)
+"""The pose values every likelihood in the table is on: the flows' 61 (the hips' root-local
+``x`` and ``z`` are always 0 and left out)."""
+
+
+def _nll(model, windows: np.ndarray) -> tuple[float, str]:
+    """Test NLL in bits per frame, data units, and what it is: ``"exact"`` (the flows),
+    ``"bound"`` (the VAE-LSTM's negative ELBO, on the same pose values given the control),
+    ``"bound, conv features"`` (Motegi's VAE: its negative ELBO bounds its conv features,
+    not the frames), or NaN and ``""`` (no likelihood)."""
+    if model.normalizer is None:
+        return float("nan"), ""
     normalised = torch.tensor(model.normalizer.normalize(windows), dtype=torch.float32)
-    normalised[..., list(model.config.constant_features)] = 0.0     # the hips' root-local x, z: exactly 0
-    return model.nll(normalised, model.normalizer)["bits/frame"]
+    normalised[..., [i for i in range(N_POSE) if i not in SCORED_POSE]] = 0.0   # exactly 0
+    if hasattr(model, "nll"):
+        return model.nll(normalised, model.normalizer)["bits/frame"], "exact"
+    if hasattr(model, "conv_ae"):
+        return model.nll_bound(normalised)["bits/frame"], "bound, conv features"
+    if hasattr(model, "nll_bound"):
+        return model.nll_bound(normalised, model.normalizer, scored=SCORED_POSE)["bits/frame"], "bound"
+    return float("nan"), ""
 
 
 def table_rows(models: dict, windows: np.ndarray, seed: int = 0) -> dict[str, dict[str, float]]:
@@ -139,8 +155,9 @@ def table_rows(models: dict, windows: np.ndarray, seed: int = 0) -> dict[str, di
     ``foot skating (cm/s)``, ``bone drift (%)`` (:func:`metrics.locomotion_report`, the
     data's planted foot heights), ``pose error 1 s (cm)`` and ``pose error 3 s (cm)``
     (root frame, :func:`metrics.errors_by_frame`; NaN for a model that sees neither control
-    nor prefix), ``test NLL (bits/frame)`` (flows; NaN otherwise), ``parameters`` and
-    ``training (min)`` of the shipped checkpoint. The data's own row comes first."""
+    nor prefix), ``test NLL (bits/frame)`` and ``test NLL is`` (what it is: see :func:`_nll`),
+    ``parameters`` and ``training (min)`` of the shipped checkpoint. The data's own row
+    comes first."""
     windows = np.asarray(windows, dtype=np.float64)
     judged = windows[:, PREFIX_FRAMES:]
     rest = metrics.foot_rest_heights(to_positions(judged, FPS))
@@ -158,7 +175,7 @@ def table_rows(models: dict, windows: np.ndarray, seed: int = 0) -> dict[str, di
         rows[label] = {**row(out),
                        "pose error 1 s (cm)": 100 * pose_error[int(FPS) - 1] if seen else float("nan"),
                        "pose error 3 s (cm)": 100 * pose_error[int(3 * FPS) - 1] if seen else float("nan"),
-                       "test NLL (bits/frame)": _nll(model, windows),
+                       **dict(zip(("test NLL (bits/frame)", "test NLL is"), _nll(model, windows))),
                        "parameters": float(weights(model)),
                        "training (min)": _training_minutes(model)}
     return rows
@@ -301,6 +318,15 @@ def _cell(value, digits: int = 1) -> str:
     return "n/a" if value is None or not np.isfinite(value) else f"{value:,.{digits}f}"
 
 
+def _likelihood_cell(row: dict) -> str:
+    """The test NLL as the table prints it: a bound is marked ``≤``, and one that is not on
+    the frames says what it is on."""
+    value, kind = _cell(row["test NLL (bits/frame)"], 0), row.get("test NLL is", "")
+    if kind.startswith("bound"):
+        return f"≤ {value}" + (f" ({kind.split(', ', 1)[1]})" if ", " in kind else "")
+    return value
+
+
 def table(models: dict, rows: dict, long: dict, speed: dict, data_label: str = "held-out windows") -> str:
     """The comparison as one Markdown table, the data's row first (``data_label`` says
     which windows): :func:`table_rows`, the last 5 s of :func:`long_run` (pose spread
@@ -320,7 +346,7 @@ def table(models: dict, rows: dict, long: dict, speed: dict, data_label: str = "
         entry = models[label][0]
         spread = long[label]["pose spread (m)"][-1] / late_data if label in long else None
         lines.append(f"| **{label}** | {entry.conditions} | {r['parameters'] / 1e3:,.0f}k "
-                     f"| {_cell(r['training (min)'])} | {_cell(r['test NLL (bits/frame)'], 0)} "
+                     f"| {_cell(r['training (min)'])} | {_likelihood_cell(r)} "
                      f"| {_cell(r['pose error 1 s (cm)'])} / {_cell(r['pose error 3 s (cm)'])} {measured}"
                      f"| {_cell(spread, 2)} | {speed[label][1]:,.0f} | {speed[label][64]:,.0f} |")
     return "\n".join(lines)

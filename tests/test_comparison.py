@@ -90,8 +90,10 @@ def test_the_table_on_a_few_held_out_windows(shipped):
     assert rows["data"]["bone drift (%)"] < 1e-6 and rows["data"]["stepping (m/s)"] > 0.3
     assert np.isnan(rows["VAE"]["pose error 1 s (cm)"])                  # sees neither control nor prefix
     assert all(np.isfinite(rows[label]["pose error 3 s (cm)"]) for label in ("MoGlow", "DFN", "VAE-LSTM"))
-    flows = {label for label, r in rows.items() if np.isfinite(r.get("test NLL (bits/frame)", np.nan))}
-    assert flows == {"Glow", "MoGlow"}
+    kinds = {label: r["test NLL is"] for label, r in rows.items()
+             if np.isfinite(r.get("test NLL (bits/frame)", np.nan))}
+    assert kinds == {"VAE": "bound, conv features", "VAE-LSTM": "bound", "Glow": "exact", "MoGlow": "exact"}
+    assert rows["VAE-LSTM"]["test NLL (bits/frame)"] > max(rows[f]["test NLL (bits/frame)"] for f in ("Glow", "MoGlow"))
     assert rows["DFN"]["bone drift (%)"] < 0.01                           # the joint-rotation decoder
     long = comparison.long_run(shipped, seconds=10.0, n=2)
     assert set(long) == {"data", "LSTM-3LR", "VAE-LSTM", "MoGlow", "DFN"}   # not the window models
@@ -100,6 +102,10 @@ def test_the_table_on_a_few_held_out_windows(shipped):
     lines = comparison.table(shipped, rows, long, speed).splitlines()
     assert len(lines) == 2 + len(rows) and lines[2].startswith("| **data**")
     assert all(line.count("|") == 14 for line in lines)
+    nll_cells = {line.split("|")[1].strip(): line.split("|")[5].strip() for line in lines[3:]}
+    assert nll_cells["**VAE**"].startswith("≤ ") and nll_cells["**VAE**"].endswith("(conv features)")
+    assert nll_cells["**VAE-LSTM**"].startswith("≤ ") and nll_cells["**MoGlow**"][0] in "-0123456789"
+    assert nll_cells["**DFN**"] == nll_cells["**LSTM-3LR**"] == "n/a"
 
 
 def test_one_drawn_path_for_every_controllable_model(shipped):

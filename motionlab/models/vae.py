@@ -21,6 +21,7 @@ rises from 0 to ``beta`` over the first training steps).
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 from typing import Callable
 
@@ -203,6 +204,32 @@ class MotionVAE(GenerativeModel):
         """Motion -> posterior mean -> motion: ``(n, window, 66)`` normalised in, data units out."""
         mu, _ = self.vae.encode(self.features(windows))
         return self.decode(mu)
+
+    @torch.no_grad()
+    def nll_bound(self, windows: torch.Tensor, samples: int = 8, seed: int = 0) -> dict[str, float]:
+        """The negative ELBO ``E + D`` of §IV-B on the windows' conv features, per frame.
+
+        It bounds ``-log p(y)`` of the standardised conv features ``y`` (:meth:`features`),
+        not of the frames: the frozen conv decoder is deterministic, so the model has no
+        density over frames at all. ``windows``: normalised motion ``(n, window, 66)``. ``E``
+        is a mean over ``samples`` draws of ``z`` (``seed``), ``D`` exact. Returns
+        ``{"nats/frame", "bits/frame"}``: the mean bound per window divided by its frames.
+        """
+        windows = torch.as_tensor(windows, dtype=torch.float32)
+        if not torch.isfinite(windows).all():
+            raise ValueError("windows: contains NaN or inf")
+        if not (isinstance(samples, int) and samples >= 1):
+            raise ValueError(f"samples: expected an int >= 1, got {samples!r}")
+        y = self.features(windows)
+        mu, log_var = self.vae.encode(y)
+        generator = generator_for(seed)
+        reconstruction = torch.zeros(len(y))
+        for _ in range(samples):
+            y_mu, y_log_var = self.vae.decode(gaussian.sample(mu, log_var, generator=generator))
+            reconstruction += gaussian.negative_log_likelihood(y, y_mu, y_log_var).sum(-1) / samples    # E
+        kl = gaussian.kl_divergence(mu, log_var).sum(-1)                                                  # D
+        per_frame = float((reconstruction + kl).mean()) / windows.shape[1]
+        return {"nats/frame": per_frame, "bits/frame": per_frame / math.log(2)}
 
     def sample(self, n: int, temperature: float = 1.0, generator: torch.Generator | None = None) -> torch.Tensor:
         """``n`` motions from the prior ``z ~ N(0, temperature² I)``: normalised ``(n, window, 66)``."""

@@ -33,6 +33,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 
+import numpy as np
 import torch
 import torch.nn.functional as F
 from torch import nn
@@ -468,6 +469,77 @@ class VAELSTM(GenerativeModel, nn.Module):
             code = self.encode_control(padded[..., self.config.n_pose:])
             mu, _ = self.posterior(padded[..., :self.config.n_pose])
             return self.decode(self.canvas(code, mu[:, :1] if free_running else mu))[:, :x.shape[1]]
+
+    # -- likelihood ----------------------------------------------------------------------
+
+    @torch.no_grad()
+    def nll_bound(self, windows: torch.Tensor, normalizer=None, scored=None, samples: int = 8,
+                  seed: int = 0) -> dict[str, float]:
+        """An upper bound on ``-log p(pose | control)`` of the model that *generates*.
+
+        Generation (Algorithm 1) is a latent-variable model with one latent: ``z_1 ~ N(0, I)``,
+        the cell in its test-time form, ``X ~ N(decoder, observation_std² I)``. Its evidence
+        lower bound with ``q(z_1 | X)`` (the inference network's first step, eq. 6) as the
+        proposal is ``E_q[log p(X | z_1, C)] - KL(q(z_1 | X) || N(0, I))`` (eq. 3-5 with
+        one latent); the negative ELBO is an upper bound on the negative log-likelihood. The
+        expectation is a mean over ``samples`` draws of ``z_1`` (``seed``), the KL exact.
+
+        Args:
+            windows: normalised features ``(n, frames, n_features)``; the control columns
+                are the condition.
+            normalizer: given, the bound is in the data's units (metres), adding ``Σ_d ln σ_d``
+                over the scored features to every frame, as the flows' ``nll`` does.
+            scored: the pose features the bound is on (default: all ``n_pose``). A subset
+                bounds their marginal likelihood (the Gaussian factorises over features).
+
+        Returns ``{"nats/frame", "bits/frame"}``: the mean bound per frame.
+        """
+        self._check(windows, "windows", self.config.n_features, min_frames=POOLING)
+        if not torch.isfinite(windows).all():
+            raise ValueError("windows: contains NaN or inf")
+        if not (isinstance(samples, int) and samples >= 1):
+            raise ValueError(f"samples: expected an int >= 1, got {samples!r}")
+        scored = self._scored(scored)
+        frames = windows.shape[1]
+        padded = pad_to_canvas(windows)
+        pose = windows[..., scored]
+        generator = generator_for(seed)
+        with eval_mode(self):
+            code = self.encode_control(padded[..., self.config.n_pose:])
+            mu, log_var = self.posterior(padded[..., :self.config.n_pose])
+            mu, log_var = mu[:, :1], log_var[:, :1]                                   # q(z_1 | X)
+            kl = gaussian.kl_divergence(mu, log_var).sum((1, 2))                        # eq. 4
+            reconstruction = windows.new_zeros(len(windows))
+            for _ in range(samples):
+                z1 = gaussian.sample(mu, log_var, generator=generator)                  # eq. 3
+                motion = self.decode(self.canvas(code, z1))[:, :frames, scored]         # test-time form
+                reconstruction += self._neg_log_likelihood(motion, pose).sum(1) / samples
+        return self._per_frame(float((reconstruction + kl).mean()) / frames, normalizer, scored)
+
+    def nll_bound_floor(self, normalizer=None, scored=None) -> dict[str, float]:
+        """The lowest value :meth:`nll_bound` can take, whatever the data and the weights:
+        every scored value reconstructed exactly and nothing paid for the latent (KL 0).
+        A fixed ``observation_std`` charges each value ``ln(σ √(2π))`` nats even then.
+        Arguments and units as for :meth:`nll_bound`."""
+        scored = self._scored(scored)
+        exact = torch.zeros(len(scored))
+        return self._per_frame(float(self._neg_log_likelihood(exact, exact)), normalizer, scored)
+
+    def _scored(self, scored) -> torch.Tensor:
+        """The pose feature indices a likelihood is on, checked (default: all)."""
+        scored = torch.arange(self.config.n_pose) if scored is None else torch.as_tensor(scored, dtype=torch.long)
+        if scored.ndim != 1 or len(scored) == 0 or scored.min() < 0 or scored.max() >= self.config.n_pose \
+                or len(set(scored.tolist())) != len(scored):
+            raise ValueError(f"scored: expected distinct pose feature indices in 0 .. {self.config.n_pose - 1}")
+        return scored
+
+    @staticmethod
+    def _per_frame(nats: float, normalizer, scored: torch.Tensor) -> dict[str, float]:
+        """Nats per frame in normalised units -> nats and bits per frame, in the data's units
+        when given the normaliser (``+ Σ_d ln σ_d`` over the scored features)."""
+        if normalizer is not None:
+            nats += float(np.log(np.asarray(normalizer.std)[scored.numpy()]).sum())
+        return {"nats/frame": nats, "bits/frame": nats / math.log(2)}
 
     def trace(self, x: torch.Tensor) -> list[tuple[str, tuple[int, ...]]]:
         """The shape of a window ``x`` at every stage, for a walk-through of the model."""
