@@ -327,26 +327,33 @@ def _likelihood_cell(row: dict) -> str:
     return value
 
 
+def late_diversity(run: dict, seconds: float = 5.0) -> float:
+    """The mean of a :func:`long_run` entry's ``"diversity (m)"`` over its last ``seconds``, cm."""
+    return 100 * float(run["diversity (m)"][-int(seconds * FPS):].mean())
+
+
 def table(models: dict, rows: dict, long: dict, speed: dict, data_label: str = "held-out windows") -> str:
     """The comparison as one Markdown table, the data's row first (``data_label`` says
     which windows): :func:`table_rows`, the last 5 s of :func:`long_run` (pose spread
-    against the data's: the built-in bodies on the same circle, hence 1 in the data's row)
-    and :func:`generation_speed`."""
+    against the data's: the built-in bodies on the same circle, hence 1 in the data's row;
+    diversity of the samples, :func:`late_diversity`) and :func:`generation_speed`."""
     late_data = long["data"]["pose spread (m)"][-1]
     lines = ["| | conditions on | weights | training (min) | test NLL (bits/frame) | pose error 1 s / 3 s (cm) "
              "| stepping (m/s) | leg swing (cm) | foot skating (cm/s) | bone drift (%) "
-             "| 30-s run: pose spread, last 5 s / data's | frames/s, 1 stream | frames/s, 64 streams |",
-             "|" + "---|" * 13]
+             "| 30-s run: pose spread, last 5 s / data's | 30-s run: diversity, last 5 s (cm) "
+             "| frames/s, 1 stream | frames/s, 64 streams |",
+             "|" + "---|" * 14]
     for label, r in rows.items():
         measured = (f"| {r['stepping (m/s)']:.2f} | {r['leg swing (cm)']:.1f} | {r['foot skating (cm/s)']:.1f} "
                     f"| {r['bone drift (%)']:.2f} ")
         if label == "data":
-            lines.append(f"| **data** ({data_label}) | | | | | {measured}| 1 | | |")
+            lines.append(f"| **data** ({data_label}) | | | | | {measured}| 1 | {late_diversity(long['data']):.1f} | | |")
             continue
         entry = models[label][0]
         spread = long[label]["pose spread (m)"][-1] / late_data if label in long else None
+        diversity = late_diversity(long[label]) if label in long else None
         lines.append(f"| **{label}** | {entry.conditions} | {r['parameters'] / 1e3:,.0f}k "
                      f"| {_cell(r['training (min)'])} | {_likelihood_cell(r)} "
                      f"| {_cell(r['pose error 1 s (cm)'])} / {_cell(r['pose error 3 s (cm)'])} {measured}"
-                     f"| {_cell(spread, 2)} | {speed[label][1]:,.0f} | {speed[label][64]:,.0f} |")
+                     f"| {_cell(spread, 2)} | {_cell(diversity)} | {speed[label][1]:,.0f} | {speed[label][64]:,.0f} |")
     return "\n".join(lines)
