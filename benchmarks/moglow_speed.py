@@ -16,8 +16,9 @@ units, τ = 10) it prints, in float32 and in bfloat16:
 and beside each figure the limit this machine puts on it, measured by the script itself:
 
 * **one stream** reads every weight once per frame, so it cannot beat
-  ``weight bytes / memory bandwidth``; the bandwidth is that of a matrix-vector product
-  streaming 240 MB of distinct matrices of the model's shape (what the stream does);
+  ``weight bytes / memory bandwidth``; the bandwidth is that of a plain sum over 240 MB of
+  distinct matrices of the model's shape, and the script also prints what the one-row
+  products the stream runs reach over the same matrices (the kernel's own limit);
 * **64 streams** and **training** are arithmetic: ``2 x weight elements`` floating-point
   operations per frame and stream forwards (every weight matrix is used once; the
   element-wise work is far smaller), three times that for a training frame (the backward
@@ -55,7 +56,7 @@ import torch
 import torch.nn.functional as F
 
 from motionlab import data, training
-from motionlab.models.base import native_bfloat16
+from motionlab.models.base import native_bfloat16, onednn_disabled
 from motionlab.models.moglow import MoGlow, MoGlowConfig
 
 TRAIN_BATCH, TRAIN_FRAMES = 100, 70          # the paper's batches (§5.2): 100 windows, 70 predicted frames
@@ -92,26 +93,37 @@ def best_time(work, repeats: int = 5) -> float:
 def machine_limits() -> dict[str, float]:
     """What this machine can do, measured over matrices of a paper-size LSTM layer's shape:
 
-    * the memory bandwidth (GB/s) a matrix-vector product reaches streaming 240 MB of
-      distinct matrices (the best of float32 and bfloat16 matrices: the stream may use either);
+    * the memory bandwidth (GB/s): a plain sum over 240 MB of distinct matrices, which reads
+      every byte once and does next to no arithmetic (the better of float32 and bfloat16);
+    * what the one-row products that one stream runs reach over the same matrices, in GB/s
+      of weights read: float32 against weights stored transposed (oneDNN), bfloat16 with
+      PyTorch's own kernel (oneDNN disabled, as :class:`MoGlowStream` does on a CPU with
+      native bfloat16);
     * matrix-product rates (GFLOP/s): large products (100 x 70 rows, as in training) in
       float32 and in bfloat16, and 64-row products (64 streams) over the same 240 MB.
     """
     shape = (4 * 512, 1205)                        # a paper-size LSTM layer: [W_ih W_hh], 4H x (in + H)
-    rates = {}
+    rates, read = {}, []
     for dtype, name, count in ((torch.float32, "float32", 24), (torch.bfloat16, "bfloat16", 48)):
         matrices = [torch.randn(shape).to(dtype) for _ in range(count)]            # 240 MB either way
         nbytes = sum(m.numel() * m.element_size() for m in matrices)
         row, rows = torch.randn(1, shape[1]).to(dtype), torch.randn(CROWD, shape[1]).to(dtype)
         big = torch.randn(TRAIN_BATCH * TRAIN_FRAMES, shape[1]).to(dtype)
-        rates[f"bandwidth, {name} (GB/s)"] = nbytes / best_time(lambda: [F.linear(row, m) for m in matrices]) / 1e9
+        read.append(nbytes / best_time(lambda: [m.sum() for m in matrices]) / 1e9)
+        if dtype == torch.float32:
+            transposed = [m.T.contiguous() for m in matrices]
+            one_row = best_time(lambda: [row @ m for m in transposed])
+            del transposed
+        else:
+            with onednn_disabled():
+                one_row = best_time(lambda: [F.linear(row, m) for m in matrices])
+        rates[f"one-row product, {name} (GB/s)"] = nbytes / one_row / 1e9
         elements = sum(m.numel() for m in matrices)
         rates[f"64-row {name} (GFLOP/s)"] = 2 * CROWD * elements / best_time(
             lambda: [F.linear(rows, m) for m in matrices], 2) / 1e9
         rates[f"large {name} (GFLOP/s)"] = 2 * big.shape[0] * matrices[0].numel() / best_time(
             lambda: F.linear(big, matrices[0]), 8) / 1e9
-    return {"bandwidth (GB/s)": max(rates.pop("bandwidth, float32 (GB/s)"), rates.pop("bandwidth, bfloat16 (GB/s)")),
-            **rates}
+    return {"bandwidth (GB/s)": max(read), **rates}
 
 
 def training_step(config: MoGlowConfig, precision: str = "fp32", repeats: int = 2) -> tuple[float, float]:
@@ -321,10 +333,15 @@ def main() -> None:
     print("\nPaper-size targets (set on another 2-core machine), measured here, and this machine's limit:")
     for what, label, streams, target in TARGETS:
         fps, limit = measured[("paper (§5.2)", label)][streams]
-        print(f"  {what}: target {target} fps, measured {fps:.0f}, limit {limit:.0f}")
+        kernel = ""
+        if streams == "one":                     # the stream's one-row product, at the rate it reads weights
+            size = 4 if label == "float32" else 2
+            elements = weight_elements(MoGlow(MoGlowConfig.paper()))
+            kernel = f" (its one-row product alone: {limits[f'one-row product, {label} (GB/s)'] * 1e9 / (size * elements):.0f})"
+        print(f"  {what}: target {target} fps, measured {fps:.0f}, limit {limit:.0f}{kernel}")
     fp32, bf16 = (measured[("paper (§5.2)", label)]["train"] for label in ("float32", "bfloat16"))
     print(f"  training step in bfloat16: {bf16 / fp32:.2f} of the float32 step")
-    print("\nLimits: one stream = bandwidth / weight bytes; 64 streams = the better of the 64-row and large "
+    print("\nLimits: one stream = memory bandwidth / weight bytes; 64 streams = the better of the 64-row and large "
           "matrix-product rates / (2 x weight elements) per frame; training step = 3 x 2 x weight elements x "
           "100 x 70 frames / the large-product rate of its precision. Without native bfloat16 arithmetic "
           "(AVX512-BF16, AMX) bfloat16 products are emulated, far below float32. The laptop model's 3 MB of "

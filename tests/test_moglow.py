@@ -301,14 +301,27 @@ def test_stream_with_two_lstm_layers_and_bfloat16_weights():
         model.stream(x[:, :4], weights=torch.float16)
 
 
-@pytest.mark.parametrize("matrix_vector", [True, False], ids=["mv", "linear"])
-def test_one_bfloat16_stream_with_either_kernel_follows_the_float32_stream(matrix_vector):
-    # one stream picks torch.mv or a matrix product by the CPU (native bfloat16 or not); both are checked here
+@pytest.mark.parametrize("product", ["matrix-vector", "own product", "product"])
+def test_one_bfloat16_stream_with_any_kernel_follows_the_float32_stream(product):
+    # one stream picks its kernel by the CPU (native bfloat16 or not); every one is checked here
     model = trained_like(replace(SMALL, lstm_layers=2))
     x = features(1, 12)
     noise = torch.randn(1, 8, 61, generator=torch.Generator().manual_seed(5))
     exact = model.stream(x[:, :4], temperature=0.5).run(x[:, 4:, -3:], noise)
     stream = model.stream(x[:, :4], temperature=0.5, weights=torch.bfloat16)
-    stream._matrix_vector = matrix_vector
+    stream._product = product
     error = (stream.run(x[:, 4:, -3:], noise) - exact).abs().max().item()
     assert 0 < error < 0.1, error
+    assert torch.backends.mkldnn.enabled                       # the own-product path restores oneDNN
+
+
+def test_one_float32_stream_with_transposed_weights_equals_the_batch_sampler():
+    model = trained_like(replace(SMALL, lstm_layers=2))
+    x = features(1, 12)
+    noise = torch.randn(1, 8, 61, generator=torch.Generator().manual_seed(6))
+    reference = model.sample(x[:, 4:, -3:], x[:, :4], temperature=0.5, noise=noise)
+    stream = model.stream(x[:, :4], temperature=0.5)
+    assert stream._product == "transposed"
+    assert torch.allclose(stream.run(x[:, 4:, -3:], noise), reference, atol=1e-4)
+
+

@@ -91,6 +91,19 @@ def native_bfloat16() -> bool:
     return bool(torch.backends.mkldnn.is_available() and supported is not None and supported())
 
 
+@contextmanager
+def onednn_disabled():
+    """Within this block PyTorch's CPU operations do not call oneDNN (``torch.backends.mkldnn``)
+    and use PyTorch's own kernels. A process-wide setting, restored on leaving: do not use
+    it while other threads compute."""
+    before = torch.backends.mkldnn.enabled
+    torch.backends.mkldnn.enabled = False
+    try:
+        yield
+    finally:
+        torch.backends.mkldnn.enabled = before
+
+
 class GenerativeModel:
     """Mixin for the models that generate: the checks and unit conversions of the contract.
 

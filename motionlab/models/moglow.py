@@ -51,7 +51,7 @@ from __future__ import annotations
 
 import copy
 import math
-from contextlib import contextmanager
+from contextlib import contextmanager, nullcontext
 from dataclasses import dataclass, replace
 from functools import partial
 
@@ -60,7 +60,7 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from .base import Generated, eval_mode, generator_for, native_bfloat16
+from .base import Generated, eval_mode, generator_for, native_bfloat16, onednn_disabled
 from .flows import _LOG_SIGMOID_SHIFT, SCALE_SHIFT, FlowSequence, FlowStep, GaussianPrior, MLPCouplingNet
 from .glow import MotionFlow
 
@@ -388,11 +388,12 @@ class MoGlowStream:
     """Real-time MoGlow: feed one control frame, get one pose back (§4.2, Fig. 3).
 
     Holds the last ``τ`` poses and controls and every coupling's LSTM state. At creation
-    it precomputes, once, what does not change from frame to frame: each step's ActNorm
-    scale, the inverse of each 1x1 map ``W^-1`` (so a frame costs matrix products, not
-    triangular solves), and each LSTM layer's two weight matrices joined into one
-    ``[W_ih W_hh]`` (one matrix-vector product per layer and frame; ``nn.LSTM`` called
-    one frame at a time repacks its weights on every call). :meth:`step` then runs the
+    it precomputes, once, what does not change from frame to frame: the inverse of each 1x1
+    map ``W^-1`` joined with its step's ActNorm inverse into one affine map (so a frame
+    costs matrix products, not triangular solves), and each LSTM layer's two weight
+    matrices joined into one ``[W_ih W_hh]`` (one matrix-vector product per layer and
+    frame; ``nn.LSTM`` called one frame at a time repacks its weights on every call), laid
+    out for the fastest kernel of this CPU. :meth:`step` then runs the
     flow backwards (coupling inverse -> ``W^-1`` -> ActNorm inverse, step ``K`` to 1) in
     inference mode. Several streams (characters) run at once as a batch.
 
@@ -440,19 +441,30 @@ class MoGlowStream:
         self.controls = history[..., model.control].clone()             # (batch, τ, n_control)
         self.frames = 0
         self._history_scale = model.history_scale                        # fixed for the stream's life
-        # one bfloat16 stream: without native bfloat16 arithmetic (AVX512-BF16, AMX) the CPU's
-        # matrix-vector kernel reads the weights faster than its matrix product; with it, slower
-        self._matrix_vector = (self.batch == 1 and weights == torch.bfloat16 and device.type == "cpu"
-                               and not native_bfloat16())
+        # How one frame's LSTM products run on a CPU (measured over paper-size layers, see
+        # benchmarks/moglow_speed.py). One stream only reads weights, and the kernels differ:
+        # * bfloat16, native arithmetic (AVX512-BF16, AMX): PyTorch's own matrix product, not
+        #   oneDNN's, reads them at the machine's memory bandwidth (~34 against ~17 GB/s);
+        # * bfloat16, emulated: the matrix-vector kernel reads them faster than a product;
+        # * float32: oneDNN's product of the row with the weights stored transposed,
+        #   ``(in, 4H)``, reads them faster (~21 GB/s) than against ``(4H, in)`` (~14).
+        # Several streams are arithmetic: oneDNN's product against ``(4H, in)``.
+        one_cpu_stream = self.batch == 1 and device.type == "cpu"
+        self._product = "product"
+        if one_cpu_stream and weights == torch.bfloat16:
+            self._product = "own product" if native_bfloat16() else "matrix-vector"
+        elif one_cpu_stream:
+            self._product = "transposed"
         with torch.inference_mode():
-            self._steps = [self._precompute(step, weights) for step in model.flow.blocks]
+            self._steps = [self._precompute(step, weights, self._product == "transposed")
+                           for step in model.flow.blocks]
             hidden = model.config.hidden
             # (h, c) of every LSTM layer of every coupling: h_{τ+1} = 0 (footnote 2)
             self._states = [[(history.new_zeros(self.batch, hidden), history.new_zeros(self.batch, hidden))
                              for _ in step["layers"]] for step in self._steps]
 
     @staticmethod
-    def _precompute(step: FlowStep, dtype: torch.dtype) -> dict:
+    def _precompute(step: FlowStep, dtype: torch.dtype, transposed: bool = False) -> dict:
         actnorm, linear, coupling = step.actnorm, step.linear, step.coupling
         w_inverse = torch.linalg.inv(linear.weight().double()).float()
         lstm, output = coupling.network.lstm, coupling.network.output
@@ -465,9 +477,12 @@ class MoGlowStream:
         for k in range(lstm.num_layers):
             joined = torch.cat([getattr(lstm, f"weight_ih_l{k}"), getattr(lstm, f"weight_hh_l{k}")], dim=1)[order]
             bias = (getattr(lstm, f"bias_ih_l{k}") + getattr(lstm, f"bias_hh_l{k}"))[order]
-            layers.append((joined.to(dtype).contiguous(), bias.clone()))
-        return {"scale": torch.exp(-actnorm.log_scale).clone(), "bias": actnorm.bias.clone(),
-                "w_inverse_t": w_inverse.T.contiguous(), "n_lo": coupling.n_lo, "n_hi": coupling.n_hi,
+            joined = joined.to(dtype)
+            layers.append(((joined.T if transposed else joined).contiguous(), bias.clone()))
+        # W^-1 then ActNorm^-1 is one affine map: (x W^-T - b) s = x (W^-T s) - b s
+        scale = torch.exp(-actnorm.log_scale)
+        return {"unmix": (w_inverse.T * scale).contiguous(), "unmix_bias": (-actnorm.bias * scale).clone(),
+                "n_lo": coupling.n_lo, "n_hi": coupling.n_hi,
                 "layers": layers, "output": (output.weight.clone(), output.bias.clone())}
 
     def _coupling_network(self, k: int, inputs: torch.Tensor) -> torch.Tensor:
@@ -478,9 +493,11 @@ class MoGlowStream:
         for layer, (weight, bias) in enumerate(self._steps[k]["layers"]):
             h, c = states[layer]
             joined = torch.cat([inputs, h], dim=1)
-            if weight.dtype == torch.float32:
+            if self._product == "transposed":                        # float32, weight (in, 4H)
+                gates = torch.addmm(bias, joined, weight)
+            elif weight.dtype == torch.float32:
                 gates = F.linear(joined, weight, bias)
-            elif self._matrix_vector:                                # one stream, no native bfloat16
+            elif self._product == "matrix-vector":                   # one stream, emulated bfloat16
                 gates = bias + torch.mv(weight, joined[0].to(weight.dtype))[None]
             else:                                                    # bfloat16 product, float32 sum
                 gates = bias + F.linear(joined.to(weight.dtype), weight)
@@ -518,7 +535,8 @@ class MoGlowStream:
             The new frame's features ``(batch, n_features)``, normalised or in data units.
         """
         model = self.model
-        with torch.inference_mode():
+        own_products = onednn_disabled() if self._product == "own product" else nullcontext()
+        with torch.inference_mode(), own_products:
             control = self._normalised_control(control)
             shape = (self.batch, model.n_modelled)
             if noise is None:
@@ -536,8 +554,7 @@ class MoGlowStream:
                 shift, raw_scale = h[:, :step["n_hi"]], h[:, step["n_hi"]:]
                 log_scale = nn.functional.logsigmoid(raw_scale + SCALE_SHIFT) - _LOG_SIGMOID_SHIFT
                 x = torch.cat([lo, x[:, step["n_lo"]:] * torch.exp(-log_scale) - shift], dim=1)   # eq. 6 inverted
-                x = x @ step["w_inverse_t"]                                                     # W^-1
-                x = (x - step["bias"]) * step["scale"]                                          # ActNorm^-1
+                x = torch.addmm(step["unmix_bias"], x, step["unmix"])                          # W^-1, ActNorm^-1
             self.poses = torch.cat([self.poses[:, 1:], x[:, None]], dim=1)
             self.controls = controls[:, 1:]
             self.frames += 1
