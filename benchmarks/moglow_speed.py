@@ -23,8 +23,11 @@ and beside each figure the limit this machine puts on it, measured by the script
   operations per frame and stream forwards (every weight matrix is used once; the
   element-wise work is far smaller), three times that for a training frame (the backward
   pass costs twice the forward). Their limits divide by the measured matrix-product rate
-  of their precision (the best of large and 64-row products). The rates vary by 10-20 %
-  between runs, so a step may come out a little under its "limit".
+  of their precision: for 64 streams the best of large and 64-row products; for training
+  the large-product rate, except for the LSTMs' recurrent products (forwards and the
+  gradient of their input), which must run frame by frame on 100 rows and get the rate
+  of such products. The rates vary by 10-20 % between runs, so a step may come out a
+  little under its "limit".
 
 Last, it trains the laptop model for ``--nll-epochs`` epochs on built-in data twice from
 the same seed, in float32 and in bfloat16, and prints both validation curves and test
@@ -78,6 +81,33 @@ def weight_elements(model: MoGlow) -> int:
     """Elements of every weight matrix (LSTM ``W_ih``, ``W_hh``, output layers, 1x1 maps):
     each is used once per frame, one multiply-add each."""
     return sum(p.numel() for p in model.parameters() if p.ndim == 2)
+
+
+def recurrent_elements(model: MoGlow) -> int:
+    """Elements of the LSTMs' recurrent matrices ``W_hh``: in training, one product per
+    frame of a batch-row input, ``h_{t-1}`` waiting for the frame before it."""
+    return sum(p.numel() for name, p in model.named_parameters() if "weight_hh" in name)
+
+
+def recurrent_rate(hidden: int, dtype: torch.dtype) -> float:
+    """GFLOP/s of the recurrent product of training, ``(100, H) x (H, 4H)`` with the same
+    matrix frame after frame (it stays in the cache), in ``dtype``."""
+    matrix = torch.randn(4 * hidden, hidden).to(dtype)
+    rows = torch.randn(TRAIN_BATCH, hidden).to(dtype)
+    repeats = 50
+    seconds = best_time(lambda: [F.linear(rows, matrix) for _ in range(repeats)])
+    return 2 * TRAIN_BATCH * matrix.numel() * repeats / seconds / 1e9
+
+
+def training_limit(model: MoGlow, large: float, recurrent: float) -> float:
+    """Seconds a training step cannot beat: every weight matrix takes 3 products per frame
+    (forwards, the gradient of its input, the gradient of its weights), at the large-product
+    rate ``large`` (GFLOP/s), except the recurrent ones' forward and input-gradient products,
+    which must go frame by frame at the 100-row rate ``recurrent``."""
+    frames = TRAIN_BATCH * TRAIN_FRAMES
+    hh = recurrent_elements(model)
+    other = weight_elements(model) - hh
+    return 2 * frames * (3 * other / large + hh / large + 2 * hh / recurrent) / 1e9
 
 
 def best_time(work, repeats: int = 5) -> float:
@@ -309,7 +339,7 @@ def main() -> None:
     print("| config | weights (MB, float32) | precision | training step (s) | its limit (s) | peak memory (MB) "
           "| 1 stream (fps) | its limit (fps) | 64 streams (fps) | their limit (fps) |")
     print("|---|---|---|---|---|---|---|---|---|---|")
-    measured = {}
+    measured, recurrent_rates = {}, []
     for name, config in {"laptop": MoGlowConfig(), "paper (§5.2)": MoGlowConfig.paper()}.items():
         elements = weight_elements(MoGlow(config))
         flops = 2 * elements                                                   # per frame, forwards
@@ -320,7 +350,9 @@ def main() -> None:
                 train = peak = train_limit = float("nan")
             else:
                 train, peak = training_step_alone(config, precision, args.threads)
-                train_limit = 3 * flops * TRAIN_BATCH * TRAIN_FRAMES / (large * 1e9)
+                recurrent = recurrent_rate(config.hidden, dtype)
+                train_limit = training_limit(MoGlow(config), large, recurrent)
+                recurrent_rates.append(f"{name} {label} {recurrent:.0f}")
             one = sampling_fps(config, 1, args.frames, dtype)
             crowd = sampling_fps(config, CROWD, max(10, args.frames // 5), dtype)
             one_limit = limits["bandwidth (GB/s)"] * 1e9 / (size * elements)
@@ -330,6 +362,8 @@ def main() -> None:
             print(f"| {name if first else ''} | {f'{4 * elements / 1e6:.1f}' if first else ''} | {label} "
                   f"| {train:.2f} | {train_limit:.2f} | {peak:.0f} | {one:.1f} | {one_limit:.0f} "
                   f"| {crowd:.0f} | {crowd_limit:.0f} |")
+    if recurrent_rates:
+        print("\nRecurrent products of training, 100 rows x H by H x 4H (GFLOP/s): " + ", ".join(recurrent_rates))
     print("\nPaper-size targets (set on another 2-core machine), measured here, and this machine's limit:")
     for what, label, streams, target in TARGETS:
         fps, limit = measured[("paper (§5.2)", label)][streams]
@@ -343,7 +377,8 @@ def main() -> None:
     print(f"  training step in bfloat16: {bf16 / fp32:.2f} of the float32 step")
     print("\nLimits: one stream = memory bandwidth / weight bytes; 64 streams = the better of the 64-row and large "
           "matrix-product rates / (2 x weight elements) per frame; training step = 3 x 2 x weight elements x "
-          "100 x 70 frames / the large-product rate of its precision. Without native bfloat16 arithmetic "
+          "100 x 70 frames at the large-product rate of its precision, except the LSTMs' recurrent products "
+          "(forwards and the input gradient), at the rate of 100-row products with the same matrix. Without native bfloat16 arithmetic "
           "(AVX512-BF16, AMX) bfloat16 products are emulated, far below float32. The laptop model's 3 MB of "
           "weights stay in the cache: its limits are far above what the per-operation overhead of small "
           "products allows.")

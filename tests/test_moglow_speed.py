@@ -36,3 +36,17 @@ def test_an_adapter_must_be_a_python_file_with_both_functions(tmp_path):
     half.write_text("def training_step(config, batch, frames):\n    return lambda: None\n")
     with pytest.raises(ValueError, match="half.py: an adapter defines .* missing: streaming_step"):
         speed.load_adapter(half)
+
+
+def test_the_training_limit_puts_the_recurrent_products_at_their_own_rate():
+    speed = speed_script()
+    config = MoGlowConfig(steps=3, hidden=8, lstm_layers=2)
+    model = speed.MoGlow(config)
+    assert speed.recurrent_elements(model) == 3 * 2 * (4 * 8) * 8          # W_hh: 4H x H, per layer and step
+    frames = speed.TRAIN_BATCH * speed.TRAIN_FRAMES
+    everything_large = 3 * 2 * speed.weight_elements(model) * frames / 100e9
+    assert speed.training_limit(model, 100.0, 100.0) == pytest.approx(everything_large)
+    # the forward and input-gradient products of W_hh at half the rate: 2 of its 3 products take twice as long
+    slower = everything_large + 2 * 2 * speed.recurrent_elements(model) * frames / 100e9
+    assert speed.training_limit(model, 100.0, 50.0) == pytest.approx(slower)
+    assert speed.recurrent_rate(8, speed.torch.float32) > 0
