@@ -8,8 +8,9 @@ units, τ = 10) it prints, in float32 and in bfloat16:
 
 * the time of one training step on a batch of 100 windows of 70 predicted frames (80 with
   the history), in float32 and in bfloat16 mixed precision (``--precision bf16``: the
-  coupling networks under autocast, the flow's transforms and likelihood in float32), and
-  the peak memory of the process that ran it;
+  coupling networks under autocast, the flow's transforms and likelihood in float32), the
+  time its LSTMs take alone (forwards and backwards, nothing else: what the LSTM kernels
+  themselves allow), and the peak memory of the process that ran it;
 * frames per second of the streaming sampler (:class:`MoGlowStream`) with float32 and with
   bfloat16 weights, for one stream and for 64 streams at once (a crowd of characters);
 
@@ -60,7 +61,7 @@ import torch.nn.functional as F
 
 from motionlab import data, training
 from motionlab.models.base import native_bfloat16, onednn_disabled
-from motionlab.models.moglow import MoGlow, MoGlowConfig
+from motionlab.models.moglow import LSTMCouplingNet, MoGlow, MoGlowConfig
 
 TRAIN_BATCH, TRAIN_FRAMES = 100, 70          # the paper's batches (§5.2): 100 windows, 70 predicted frames
 CROWD = 64
@@ -174,6 +175,22 @@ def training_step(config: MoGlowConfig, precision: str = "fp32", repeats: int = 
         optimizer.step()
     seconds = best_time(step, repeats)              # the first, untimed step also initialises ActNorm
     return seconds, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+
+
+def lstm_seconds(config: MoGlowConfig, precision: str = "fp32", repeats: int = 2) -> float:
+    """Seconds the LSTMs of one training step take alone (best of ``repeats``): forwards and
+    backwards, with the gradient of their input, of the ``config.steps`` coupling LSTMs over
+    the step's 100 windows of 70 frames, and nothing else of the model."""
+    torch.manual_seed(0)
+    lstms = [m.lstm for m in MoGlow(config).modules() if isinstance(m, LSTMCouplingNet)]
+    inputs = torch.randn(TRAIN_BATCH, TRAIN_FRAMES, lstms[0].input_size, requires_grad=True)
+    low = training.PRECISIONS[precision]
+
+    def work():
+        with torch.autocast("cpu", dtype=low) if low is not None else nullcontext():
+            total = sum(lstm(inputs)[0].float().mean() for lstm in lstms)
+        total.backward()
+    return best_time(work, repeats)
 
 
 def _training_in_child(config: MoGlowConfig, precision: str, threads: int, queue) -> None:
@@ -311,7 +328,7 @@ def main() -> None:
     parser.add_argument("--threads", type=int, default=2)
     parser.add_argument("--frames", type=int, default=100, help="frames per stream and timing")
     parser.add_argument("--skip-paper-training", action="store_true",
-                        help="skip the paper-size training steps (about three minutes)")
+                        help="skip the paper-size training steps and their LSTMs alone (about four minutes)")
     parser.add_argument("--nll-epochs", type=int, default=10,
                         help="epochs of the float32 / bfloat16 NLL comparison (0: skip it)")
     parser.add_argument("--nll-clips", type=int, default=100, help="built-in clips for that comparison")
@@ -336,31 +353,36 @@ def main() -> None:
     limits = machine_limits()
     print("This machine, measured: " + ", ".join(f"{name} {value:.1f}" for name, value in limits.items()) + "\n")
 
-    print("| config | weights (MB, float32) | precision | training step (s) | its limit (s) | peak memory (MB) "
-          "| 1 stream (fps) | its limit (fps) | 64 streams (fps) | their limit (fps) |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
+    print("| config | weights (MB, float32) | precision | training step (s) | its LSTMs alone (s) | its limit (s) "
+          "| peak memory (MB) | 1 stream (fps) | its limit (fps) | 64 streams (fps) | their limit (fps) |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    configs = {"laptop": MoGlowConfig(), "paper (§5.2)": MoGlowConfig.paper()}
+    # the streams first: after gigabytes of training, one stream reads its weights slower here
+    streaming = {(name, dtype): (sampling_fps(config, 1, args.frames, dtype),
+                                 sampling_fps(config, CROWD, max(10, args.frames // 5), dtype))
+                 for name, config in configs.items() for dtype in (torch.float32, torch.bfloat16)}
     measured, recurrent_rates = {}, []
-    for name, config in {"laptop": MoGlowConfig(), "paper (§5.2)": MoGlowConfig.paper()}.items():
+    for name, config in configs.items():
         elements = weight_elements(MoGlow(config))
         flops = 2 * elements                                                   # per frame, forwards
         for dtype, precision, size in ((torch.float32, "fp32", 4), (torch.bfloat16, "bf16", 2)):
             label = str(dtype).replace("torch.", "")
             large = limits[f"large {label} (GFLOP/s)"]
             if args.skip_paper_training and name != "laptop":
-                train = peak = train_limit = float("nan")
+                train = peak = train_limit = lstms = float("nan")
             else:
                 train, peak = training_step_alone(config, precision, args.threads)
+                lstms = lstm_seconds(config, precision, repeats=1)
                 recurrent = recurrent_rate(config.hidden, dtype)
                 train_limit = training_limit(MoGlow(config), large, recurrent)
                 recurrent_rates.append(f"{name} {label} {recurrent:.0f}")
-            one = sampling_fps(config, 1, args.frames, dtype)
-            crowd = sampling_fps(config, CROWD, max(10, args.frames // 5), dtype)
+            one, crowd = streaming[(name, dtype)]
             one_limit = limits["bandwidth (GB/s)"] * 1e9 / (size * elements)
             crowd_limit = max(large, limits[f"64-row {label} (GFLOP/s)"]) * 1e9 / flops
             measured[(name, label)] = {"one": (one, one_limit), "crowd": (crowd, crowd_limit), "train": train}
             first = dtype == torch.float32
             print(f"| {name if first else ''} | {f'{4 * elements / 1e6:.1f}' if first else ''} | {label} "
-                  f"| {train:.2f} | {train_limit:.2f} | {peak:.0f} | {one:.1f} | {one_limit:.0f} "
+                  f"| {train:.2f} | {lstms:.2f} | {train_limit:.2f} | {peak:.0f} | {one:.1f} | {one_limit:.0f} "
                   f"| {crowd:.0f} | {crowd_limit:.0f} |")
     if recurrent_rates:
         print("\nRecurrent products of training, 100 rows x H by H x 4H (GFLOP/s): " + ", ".join(recurrent_rates))
