@@ -50,3 +50,4 @@ def test_the_training_limit_puts_the_recurrent_products_at_their_own_rate():
     slower = everything_large + 2 * 2 * speed.recurrent_elements(model) * frames / 100e9
     assert speed.training_limit(model, 100.0, 50.0) == pytest.approx(slower)
     assert speed.recurrent_rate(8, speed.torch.float32) > 0
+    assert speed.lstm_seconds(MoGlowConfig(steps=2, hidden=8), "bf16", repeats=1) > 0
