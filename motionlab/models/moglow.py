@@ -444,7 +444,7 @@ class MoGlowStream:
         # How one frame's LSTM products run on a CPU (measured over paper-size layers, see
         # benchmarks/moglow_speed.py). One stream only reads weights, and the kernels differ:
         # * bfloat16, native arithmetic (AVX512-BF16, AMX): PyTorch's own matrix product, not
-        #   oneDNN's, reads them at the machine's memory bandwidth (~34 against ~17 GB/s);
+        #   oneDNN's, reads them at about the memory bandwidth (~30 against ~17 GB/s);
         # * bfloat16, emulated: the matrix-vector kernel reads them faster than a product;
         # * float32: oneDNN's product of the row with the weights stored transposed,
         #   ``(in, 4H)``, reads them faster (~21 GB/s) than against ``(4H, in)`` (~14).

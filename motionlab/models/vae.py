@@ -223,7 +223,7 @@ class MotionVAE(GenerativeModel):
         y = self.features(windows)
         mu, log_var = self.vae.encode(y)
         generator = generator_for(seed)
-        reconstruction = torch.zeros(len(y))
+        reconstruction = y.new_zeros(len(y))
         for _ in range(samples):
             y_mu, y_log_var = self.vae.decode(gaussian.sample(mu, log_var, generator=generator))
             reconstruction += gaussian.negative_log_likelihood(y, y_mu, y_log_var).sum(-1) / samples    # E
