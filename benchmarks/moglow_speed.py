@@ -363,7 +363,8 @@ def main() -> None:
                  for name, config in configs.items() for dtype in (torch.float32, torch.bfloat16)}
     measured, recurrent_rates = {}, []
     for name, config in configs.items():
-        elements = weight_elements(MoGlow(config))
+        model = MoGlow(config)
+        elements = weight_elements(model)
         flops = 2 * elements                                                   # per frame, forwards
         for dtype, precision, size in ((torch.float32, "fp32", 4), (torch.bfloat16, "bf16", 2)):
             label = str(dtype).replace("torch.", "")
@@ -374,12 +375,13 @@ def main() -> None:
                 train, peak = training_step_alone(config, precision, args.threads)
                 lstms = lstm_seconds(config, precision, repeats=1)
                 recurrent = recurrent_rate(config.hidden, dtype)
-                train_limit = training_limit(MoGlow(config), large, recurrent)
+                train_limit = training_limit(model, large, recurrent)
                 recurrent_rates.append(f"{name} {label} {recurrent:.0f}")
             one, crowd = streaming[(name, dtype)]
             one_limit = limits["bandwidth (GB/s)"] * 1e9 / (size * elements)
             crowd_limit = max(large, limits[f"64-row {label} (GFLOP/s)"]) * 1e9 / flops
-            measured[(name, label)] = {"one": (one, one_limit), "crowd": (crowd, crowd_limit), "train": train}
+            measured[(name, label)] = {"one": (one, one_limit), "crowd": (crowd, crowd_limit), "train": train,
+                                       "weight bytes": size * elements}
             first = dtype == torch.float32
             print(f"| {name if first else ''} | {f'{4 * elements / 1e6:.1f}' if first else ''} | {label} "
                   f"| {train:.2f} | {lstms:.2f} | {train_limit:.2f} | {peak:.0f} | {one:.1f} | {one_limit:.0f} "
@@ -388,19 +390,20 @@ def main() -> None:
         print("\nRecurrent products of training, 100 rows x H by H x 4H (GFLOP/s): " + ", ".join(recurrent_rates))
     print("\nPaper-size targets (set on another 2-core machine), measured here, and this machine's limit:")
     for what, label, streams, target in TARGETS:
-        fps, limit = measured[("paper (§5.2)", label)][streams]
+        paper = measured[("paper (§5.2)", label)]
+        fps, limit = paper[streams]
         kernel = ""
         if streams == "one":                     # the stream's one-row product, at the rate it reads weights
-            size = 4 if label == "float32" else 2
-            elements = weight_elements(MoGlow(MoGlowConfig.paper()))
-            kernel = f" (its one-row product alone: {limits[f'one-row product, {label} (GB/s)'] * 1e9 / (size * elements):.0f})"
+            kernel_fps = limits[f"one-row product, {label} (GB/s)"] * 1e9 / paper["weight bytes"]
+            kernel = f" (its one-row product alone: {kernel_fps:.0f})"
         print(f"  {what}: target {target} fps, measured {fps:.0f}, limit {limit:.0f}{kernel}")
     fp32, bf16 = (measured[("paper (§5.2)", label)]["train"] for label in ("float32", "bfloat16"))
     print(f"  training step in bfloat16: {bf16 / fp32:.2f} of the float32 step")
     print("\nLimits: one stream = memory bandwidth / weight bytes; 64 streams = the better of the 64-row and large "
           "matrix-product rates / (2 x weight elements) per frame; training step = 3 x 2 x weight elements x "
           "100 x 70 frames at the large-product rate of its precision, except the LSTMs' recurrent products "
-          "(forwards and the input gradient), at the rate of 100-row products with the same matrix. Without native bfloat16 arithmetic "
+          "(forwards and the input gradient), at the rate of 100-row products with the same matrix. "
+          "Without native bfloat16 arithmetic "
           "(AVX512-BF16, AMX) bfloat16 products are emulated, far below float32. The laptop model's 3 MB of "
           "weights stay in the cache: its limits are far above what the per-operation overhead of small "
           "products allows.")
