@@ -35,25 +35,29 @@ def _windows(n: int, frames: int) -> torch.Tensor:
     return x
 
 
-def training_step(config: MoGlowConfig, batch: int, frames: int):
+def training_step(config: MoGlowConfig, batch: int, frames: int, precision: str = "fp32"):
+    """(motionlab only: ``precision="bf16"`` trains in bfloat16 mixed precision.)"""
     torch.manual_seed(0)
     model = MoGlow(config)
     optimizer = training.adam(model.parameters(), lr=1e-4)
     x = _windows(batch, frames)
+    low = training.PRECISIONS[precision]
 
     def step() -> None:
-        loss = model.loss(x)["loss"]
+        with torch.autocast("cpu", dtype=low, enabled=low is not None):
+            loss = model.loss(x)["loss"]
         optimizer.zero_grad(set_to_none=True)
         loss.backward()
         optimizer.step()
     return step
 
 
-def streaming_step(config: MoGlowConfig, streams: int):
+def streaming_step(config: MoGlowConfig, streams: int, weights: torch.dtype = torch.float32):
+    """(motionlab only: ``weights=torch.bfloat16`` streams with bfloat16 weights.)"""
     torch.manual_seed(0)
     model = MoGlow(config)
     model.loss(_windows(4, config.history + 2))        # ActNorm's data-dependent initialisation
     model.eval()
     stream = model.stream(_windows(streams, config.history), temperature=0.8,
-                          generator=torch.Generator().manual_seed(0))
+                          generator=torch.Generator().manual_seed(0), weights=weights)
     return stream.step

@@ -10,7 +10,9 @@ units, τ = 10) it prints, in float32 and in bfloat16:
   the history), in float32 and in bfloat16 mixed precision (``--precision bf16``: the
   coupling networks under autocast, the flow's transforms and likelihood in float32), the
   time its LSTMs take alone (forwards and backwards, nothing else: what the LSTM kernels
-  themselves allow), and the peak memory of the process that ran it;
+  themselves allow), both as MoGlow trains them on the CPU (the written-out LSTM of
+  :mod:`motionlab.models.recurrent`) and with ``nn.LSTM``'s oneDNN kernels, and the peak
+  memory of the process that ran the step;
 * frames per second of the streaming sampler (:class:`MoGlowStream`) with float32 and with
   bfloat16 weights, for one stream and for 64 streams at once (a crowd of characters);
 
@@ -60,6 +62,7 @@ import torch
 import torch.nn.functional as F
 
 from motionlab import data, training
+from motionlab.models import recurrent
 from motionlab.models.base import native_bfloat16, onednn_disabled
 from motionlab.models.moglow import LSTMCouplingNet, MoGlow, MoGlowConfig
 
@@ -100,15 +103,23 @@ def recurrent_rate(hidden: int, dtype: torch.dtype) -> float:
     return 2 * TRAIN_BATCH * matrix.numel() * repeats / seconds / 1e9
 
 
+def conditioning_elements(model: MoGlow) -> int:
+    """Elements of the first LSTM layers' input matrices that read the conditioning: they
+    need no input gradient (the conditioning is data)."""
+    nets = [m for m in model.modules() if isinstance(m, LSTMCouplingNet)]
+    return sum(4 * net.lstm.hidden_size * model.cond_channels for net in nets)
+
+
 def training_limit(model: MoGlow, large: float, recurrent: float) -> float:
     """Seconds a training step cannot beat: every weight matrix takes 3 products per frame
-    (forwards, the gradient of its input, the gradient of its weights), at the large-product
-    rate ``large`` (GFLOP/s), except the recurrent ones' forward and input-gradient products,
-    which must go frame by frame at the 100-row rate ``recurrent``."""
+    (forwards, the gradient of its input, the gradient of its weights; the conditioning
+    needs no input gradient), at the large-product rate ``large`` (GFLOP/s), except the
+    recurrent ones' forward and input-gradient products, which must go frame by frame at
+    the 100-row rate ``recurrent``."""
     frames = TRAIN_BATCH * TRAIN_FRAMES
     hh = recurrent_elements(model)
     other = weight_elements(model) - hh
-    return 2 * frames * (3 * other / large + hh / large + 2 * hh / recurrent) / 1e9
+    return 2 * frames * ((3 * other - conditioning_elements(model)) / large + hh / large + 2 * hh / recurrent) / 1e9
 
 
 def best_time(work, repeats: int = 5) -> float:
@@ -177,18 +188,28 @@ def training_step(config: MoGlowConfig, precision: str = "fp32", repeats: int = 
     return seconds, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 
 
-def lstm_seconds(config: MoGlowConfig, precision: str = "fp32", repeats: int = 2) -> float:
+def lstm_seconds(config: MoGlowConfig, precision: str = "fp32", repeats: int = 2, written_out: bool = True) -> float:
     """Seconds the LSTMs of one training step take alone (best of ``repeats``): forwards and
-    backwards, with the gradient of their input, of the ``config.steps`` coupling LSTMs over
-    the step's 100 windows of 70 frames, and nothing else of the model."""
+    backwards, with the gradient of the half-pose they read but not of the conditioning, of
+    the ``config.steps`` coupling LSTMs over the step's 100 windows of 70 frames, and
+    nothing else of the model. ``written_out``: as MoGlow trains them on the CPU (through
+    :func:`motionlab.models.recurrent.lstm` where it pays off); ``False``: ``nn.LSTM``'s
+    own kernels."""
     torch.manual_seed(0)
-    lstms = [m.lstm for m in MoGlow(config).modules() if isinstance(m, LSTMCouplingNet)]
-    inputs = torch.randn(TRAIN_BATCH, TRAIN_FRAMES, lstms[0].input_size, requires_grad=True)
+    model = MoGlow(config)
+    lstms = [m.lstm for m in model.modules() if isinstance(m, LSTMCouplingNet)]
+    cond = torch.randn(TRAIN_BATCH, TRAIN_FRAMES, model.cond_channels)
+    half = torch.randn(TRAIN_BATCH, TRAIN_FRAMES, lstms[0].input_size - model.cond_channels, requires_grad=True)
     low = training.PRECISIONS[precision]
+
+    def run(lstm):
+        if written_out and recurrent.pays_off(lstm, cond.shape[-1], recurrent.product_dtype(half)):
+            return recurrent.lstm(lstm, half, cond)
+        return lstm(torch.cat([half, cond], -1))[0]
 
     def work():
         with torch.autocast("cpu", dtype=low) if low is not None else nullcontext():
-            total = sum(lstm(inputs)[0].float().mean() for lstm in lstms)
+            total = sum(run(lstm).float().mean() for lstm in lstms)
         total.backward()
     return best_time(work, repeats)
 
@@ -278,49 +299,65 @@ def load_adapter(path: str | Path):
     return module
 
 
-def compare(other, configs: dict, rounds: int = 4, frames: int = 100, trained=None) -> list[dict]:
+def compare(other, configs: dict, rounds: int = 4, frames: int = 100, trained=None, bf16: bool | None = None) -> list[dict]:
     """Time the adapter ``other`` beside motionlab (through ``compare_motionlab.py``) for each
-    of ``configs`` (``{name: MoGlowConfig}``), float32: seconds of a training step (100
-    windows of 80 frames; only for the names in ``trained``, default all), frames per second
-    of one stream (``frames`` frames) and of 64 (``frames // 5``), each the median of
-    ``rounds`` interleaved rounds. Returns one row a measure: ``config``, ``measure``,
-    ``other``, ``motionlab``, ``unit`` and ``speed-up`` (motionlab against the other: above
-    1, motionlab is faster)."""
+    of ``configs`` (``{name: MoGlowConfig}``): seconds of a training step (100 windows of 80
+    frames; only for the names in ``trained``, default all), frames per second of one
+    stream (``frames`` frames) and of 64 (``frames // 5``), each the median of ``rounds``
+    interleaved rounds. Both sides run in float32; with ``bf16`` (default: where the CPU
+    has native bfloat16 products) motionlab also runs in bfloat16 (mixed-precision
+    training, bfloat16 stream weights), timed in the same rounds. Returns one row a
+    measure: ``config``, ``measure``, ``unit``, ``other``, ``motionlab``, ``speed-up``
+    (motionlab float32 against the other: above 1, motionlab is faster), and with bf16
+    ``motionlab bf16`` and ``bf16 speed-up``."""
     ours = load_adapter(Path(__file__).with_name("compare_motionlab.py"))
-    sides = {"other": other, "motionlab": ours}
+    bf16 = native_bfloat16() if bf16 is None else bf16
     rows = []
     for name, config in configs.items():
         measures = {}
         if trained is None or name in trained:
             batch, length = TRAIN_BATCH, config.history + TRAIN_FRAMES
-            measures["training step"] = ("s", {side: module.training_step(config, batch, length)
-                                               for side, module in sides.items()}, None)
+            sides = {"other": other.training_step(config, batch, length),
+                     "motionlab": ours.training_step(config, batch, length)}
+            if bf16:
+                sides["motionlab bf16"] = ours.training_step(config, batch, length, precision="bf16")
+            measures["training step"] = ("s", sides, None)
         for streams, count in ((1, frames), (CROWD, max(10, frames // 5))):
-            measures[f"{streams} stream{'s' if streams > 1 else ''}"] = (
-                "frames/s", {side: module.streaming_step(config, streams) for side, module in sides.items()},
-                (streams, count))
+            sides = {"other": other.streaming_step(config, streams), "motionlab": ours.streaming_step(config, streams)}
+            if bf16:
+                sides["motionlab bf16"] = ours.streaming_step(config, streams, weights=torch.bfloat16)
+            measures[f"{streams} stream{'s' if streams > 1 else ''}"] = ("frames/s", sides, (streams, count))
         for measure, (unit, work, streaming) in measures.items():
-            results = {side: [] for side in sides}
+            results = {side: [] for side in work}
             for round_ in range(rounds):
                 order = list(work.items()) if round_ % 2 == 0 else list(work.items())[::-1]   # who goes first alternates
                 for side, step in order:
                     results[side].append(best_time(step, 1) if streaming is None
                                          else streaming_rate(step, *streaming))
-            theirs, mine = (statistics.median(results[side]) for side in ("other", "motionlab"))
-            speedup = theirs / mine if streaming is None else mine / theirs
-            rows.append({"config": name, "measure": measure, "other": theirs, "motionlab": mine, "unit": unit,
-                         "speed-up": speedup})
+            row = {"config": name, "measure": measure, "unit": unit}
+            row.update({side: statistics.median(values) for side, values in results.items()})
+            for side, key in (("motionlab", "speed-up"), ("motionlab bf16", "bf16 speed-up")):
+                if side in row:
+                    row[key] = row["other"] / row[side] if streaming is None else row[side] / row["other"]
+            rows.append(row)
     return rows
 
 
 def print_comparison(rows: list[dict], adapter: str, rounds: int) -> None:
-    print(f"motionlab beside {adapter}, float32, median of {rounds} interleaved rounds:\n")
-    print("| config | measure | other | motionlab | motionlab's speed-up |")
-    print("|---|---|---|---|---|")
+    bf16 = any("motionlab bf16" in r for r in rows)
+    print(f"motionlab beside {adapter}, median of {rounds} interleaved rounds; the other in float32"
+          + (", motionlab in float32 and in bfloat16 (mixed-precision training, bfloat16 stream weights)" if bf16
+             else "") + ":\n")
+    extra = " | motionlab bf16 | its speed-up" if bf16 else ""
+    print(f"| config | measure | other | motionlab | motionlab's speed-up{extra} |")
+    print("|---|---|---|---|---|" + ("---|---|" if bf16 else ""))
     for r in rows:
         digits = 2 if r["unit"] == "s" else 0
-        print(f"| {r['config']} | {r['measure']} ({r['unit']}) | {r['other']:,.{digits}f} "
-              f"| {r['motionlab']:,.{digits}f} | {r['speed-up']:.2f}x |")
+        line = (f"| {r['config']} | {r['measure']} ({r['unit']}) | {r['other']:,.{digits}f} "
+                f"| {r['motionlab']:,.{digits}f} | {r['speed-up']:.2f}x |")
+        if bf16:
+            line += f" {r['motionlab bf16']:,.{digits}f} | {r['bf16 speed-up']:.2f}x |"
+        print(line)
 
 
 def main() -> None:
@@ -353,7 +390,8 @@ def main() -> None:
     limits = machine_limits()
     print("This machine, measured: " + ", ".join(f"{name} {value:.1f}" for name, value in limits.items()) + "\n")
 
-    print("| config | weights (MB, float32) | precision | training step (s) | its LSTMs alone (s) | its limit (s) "
+    print("| config | weights (MB, float32) | precision | training step (s) "
+          "| its LSTMs alone: as trained / nn.LSTM (s) | its limit (s) "
           "| peak memory (MB) | 1 stream (fps) | its limit (fps) | 64 streams (fps) | their limit (fps) |")
     print("|---|---|---|---|---|---|---|---|---|---|---|")
     configs = {"laptop": MoGlowConfig(), "paper (§5.2)": MoGlowConfig.paper()}
@@ -370,13 +408,14 @@ def main() -> None:
             label = str(dtype).replace("torch.", "")
             large = limits[f"large {label} (GFLOP/s)"]
             if args.skip_paper_training and name != "laptop":
-                train = peak = train_limit = lstms = float("nan")
+                train = peak = train_limit = lstms = onednn_lstms = float("nan")
             else:
                 train, peak = training_step_alone(config, precision, args.threads)
                 lstms = lstm_seconds(config, precision, repeats=1)
-                recurrent = recurrent_rate(config.hidden, dtype)
-                train_limit = training_limit(model, large, recurrent)
-                recurrent_rates.append(f"{name} {label} {recurrent:.0f}")
+                onednn_lstms = lstm_seconds(config, precision, repeats=1, written_out=False)
+                recurrent_gflops = recurrent_rate(config.hidden, dtype)
+                train_limit = training_limit(model, large, recurrent_gflops)
+                recurrent_rates.append(f"{name} {label} {recurrent_gflops:.0f}")
             one, crowd = streaming[(name, dtype)]
             one_limit = limits["bandwidth (GB/s)"] * 1e9 / (size * elements)
             crowd_limit = max(large, limits[f"64-row {label} (GFLOP/s)"]) * 1e9 / flops
@@ -384,7 +423,7 @@ def main() -> None:
                                        "weight bytes": size * elements}
             first = dtype == torch.float32
             print(f"| {name if first else ''} | {f'{4 * elements / 1e6:.1f}' if first else ''} | {label} "
-                  f"| {train:.2f} | {lstms:.2f} | {train_limit:.2f} | {peak:.0f} | {one:.1f} | {one_limit:.0f} "
+                  f"| {train:.2f} | {lstms:.2f} / {onednn_lstms:.2f} | {train_limit:.2f} | {peak:.0f} | {one:.1f} | {one_limit:.0f} "
                   f"| {crowd:.0f} | {crowd_limit:.0f} |")
     if recurrent_rates:
         print("\nRecurrent products of training, 100 rows x H by H x 4H (GFLOP/s): " + ", ".join(recurrent_rates))
@@ -400,9 +439,10 @@ def main() -> None:
     fp32, bf16 = (measured[("paper (§5.2)", label)]["train"] for label in ("float32", "bfloat16"))
     print(f"  training step in bfloat16: {bf16 / fp32:.2f} of the float32 step")
     print("\nLimits: one stream = memory bandwidth / weight bytes; 64 streams = the better of the 64-row and large "
-          "matrix-product rates / (2 x weight elements) per frame; training step = 3 x 2 x weight elements x "
-          "100 x 70 frames at the large-product rate of its precision, except the LSTMs' recurrent products "
-          "(forwards and the input gradient), at the rate of 100-row products with the same matrix. "
+          "matrix-product rates / (2 x weight elements) per frame; training step = 2 x (3 x weight elements - "
+          "the LSTM input columns that read the conditioning, which needs no gradient) x 100 x 70 frames at the "
+          "large-product rate of its precision, except the LSTMs' recurrent products (forwards and the input "
+          "gradient), at the rate of 100-row products with the same matrix. "
           "Without native bfloat16 arithmetic "
           "(AVX512-BF16, AMX) bfloat16 products are emulated, far below float32. The laptop model's 3 MB of "
           "weights stay in the cache: its limits are far above what the per-operation overhead of small "

@@ -20,12 +20,17 @@ def speed_script():
 def test_compare_times_an_adapter_beside_motionlab():
     speed = speed_script()
     adapter = speed.load_adapter(BENCHMARKS / "compare_motionlab.py")
-    rows = speed.compare(adapter, {"tiny": MoGlowConfig(steps=2, hidden=8)}, rounds=1, frames=3)
+    rows = speed.compare(adapter, {"tiny": MoGlowConfig(steps=2, hidden=8)}, rounds=1, frames=3, bf16=True)
     assert [(r["config"], r["measure"], r["unit"]) for r in rows] == [
         ("tiny", "training step", "s"), ("tiny", "1 stream", "frames/s"), ("tiny", "64 streams", "frames/s")]
     assert all(r["other"] > 0 and r["motionlab"] > 0 and np.isfinite(r["speed-up"]) for r in rows)
-    untrained = speed.compare(adapter, {"tiny": MoGlowConfig(steps=2, hidden=8)}, rounds=1, frames=3, trained=())
+    assert all(r["motionlab bf16"] > 0 and np.isfinite(r["bf16 speed-up"]) for r in rows)
+    untrained = speed.compare(adapter, {"tiny": MoGlowConfig(steps=2, hidden=8)}, rounds=1, frames=3, trained=(),
+                              bf16=False)
     assert [r["measure"] for r in untrained] == ["1 stream", "64 streams"]
+    assert all("motionlab bf16" not in r for r in untrained)
+    speed.print_comparison(rows, "compare_motionlab.py", 1)
+    speed.print_comparison(untrained, "compare_motionlab.py", 1)
 
 
 def test_an_adapter_must_be_a_python_file_with_both_functions(tmp_path):
@@ -43,11 +48,14 @@ def test_the_training_limit_puts_the_recurrent_products_at_their_own_rate():
     config = MoGlowConfig(steps=3, hidden=8, lstm_layers=2)
     model = speed.MoGlow(config)
     assert speed.recurrent_elements(model) == 3 * 2 * (4 * 8) * 8          # W_hh: 4H x H, per layer and step
+    # the conditioning (10 x 61 history values and 11 x 3 controls) needs no input gradient
+    assert speed.conditioning_elements(model) == 3 * (4 * 8) * (10 * 61 + 11 * 3)
     frames = speed.TRAIN_BATCH * speed.TRAIN_FRAMES
-    everything_large = 3 * 2 * speed.weight_elements(model) * frames / 100e9
+    everything_large = 2 * (3 * speed.weight_elements(model) - speed.conditioning_elements(model)) * frames / 100e9
     assert speed.training_limit(model, 100.0, 100.0) == pytest.approx(everything_large)
     # the forward and input-gradient products of W_hh at half the rate: 2 of its 3 products take twice as long
     slower = everything_large + 2 * 2 * speed.recurrent_elements(model) * frames / 100e9
     assert speed.training_limit(model, 100.0, 50.0) == pytest.approx(slower)
     assert speed.recurrent_rate(8, speed.torch.float32) > 0
     assert speed.lstm_seconds(MoGlowConfig(steps=2, hidden=8), "bf16", repeats=1) > 0
+    assert speed.lstm_seconds(MoGlowConfig(steps=2, hidden=8), "fp32", repeats=1, written_out=False) > 0

@@ -1,0 +1,184 @@
+"""motionlab.models.recurrent.lstm: the written-out LSTM computes what nn.LSTM does."""
+import pytest
+import torch
+from torch import nn
+
+from motionlab import training
+from motionlab.models.moglow import LSTMCouplingNet, MoGlow, MoGlowConfig
+from motionlab.models.recurrent import can_use, lstm, pays_off
+
+
+def _pair(inputs=5, extra=7, hidden=6, layers=2, batch=3, frames=4, dtype=torch.float32, seed=0):
+    torch.manual_seed(seed)
+    module = nn.LSTM(inputs + extra, hidden, layers, batch_first=True).to(dtype)
+    a = torch.randn(batch, frames, inputs, dtype=dtype, requires_grad=True)
+    b = torch.randn(batch, frames, extra, dtype=dtype)
+    return module, a, b
+
+
+def _grads(module, a, b, out):
+    weights = torch.randn_like(out, generator=torch.Generator().manual_seed(1)) if out.dtype != torch.bfloat16 \
+        else torch.randn(out.shape, generator=torch.Generator().manual_seed(1))
+    (out.float() * weights.float()).sum().backward()
+    grads = {name: p.grad.clone() for name, p in module.named_parameters()}
+    grads["inputs"] = a.grad.clone()
+    if b.requires_grad:
+        grads["extra"] = b.grad.clone()
+    module.zero_grad(set_to_none=True)
+    a.grad = b.grad = None
+    return grads
+
+
+@pytest.mark.parametrize("layers", [1, 2])
+@pytest.mark.parametrize("extra_grad", [False, True])
+def test_matches_nn_lstm_in_float64(layers, extra_grad):
+    module, a, b = _pair(layers=layers, dtype=torch.float64)
+    b.requires_grad_(extra_grad)
+    expected_out = module(torch.cat([a, b], -1))[0]
+    expected = _grads(module, a, b, expected_out)
+    out = lstm(module, a, b)
+    got = _grads(module, a, b, out)
+    assert out.shape == expected_out.shape and out.dtype == torch.float64
+    torch.testing.assert_close(out, expected_out, rtol=1e-10, atol=1e-12)
+    assert got.keys() == expected.keys()
+    for name in expected:
+        torch.testing.assert_close(got[name], expected[name], rtol=1e-9, atol=1e-11, msg=name)
+
+
+def test_gradcheck():
+    """Finite differences in float64 of the outputs by the inputs, the extra and every weight."""
+    module, a, b = _pair(inputs=2, extra=3, hidden=3, layers=2, batch=2, frames=3, dtype=torch.float64)
+    b.requires_grad_(True)
+    names = [name for name, _ in module.named_parameters()]
+    params = [p.detach().clone().requires_grad_(True) for p in module.parameters()]
+    assert torch.autograd.gradcheck(lambda a, b, *params: _functional_lstm(module, names, params, a, b),
+                                    (a, b, *params), eps=1e-6, atol=1e-6)
+
+
+def _functional_lstm(module, names, params, a, b):
+    """``lstm`` with the module's weights replaced by ``params`` (so gradcheck can vary them)."""
+    copy = nn.LSTM(module.input_size, module.hidden_size, module.num_layers, batch_first=True).double()
+    for name, value in zip(names, params):
+        delattr(copy, name)
+        setattr(copy, name, value)
+    return lstm(copy, a, b)
+
+
+def test_without_an_extra():
+    module, a, _ = _pair(inputs=12, extra=0, dtype=torch.float64)
+    expected_out = module(a)[0]
+    expected = _grads(module, a, torch.zeros(0), expected_out)
+    got = _grads(module, a, torch.zeros(0), lstm(module, a))
+    for name in expected:
+        torch.testing.assert_close(got[name], expected[name], msg=name)
+
+
+def test_no_gradient_for_an_extra_that_needs_none():
+    module, a, b = _pair()
+    lstm(module, a, b).sum().backward()
+    assert a.grad is not None and b.grad is None
+
+
+@pytest.mark.parametrize("frames", [1, 2])
+def test_short_sequences(frames):
+    module, a, b = _pair(frames=frames, dtype=torch.float64)
+    torch.testing.assert_close(lstm(module, a, b), module(torch.cat([a, b], -1))[0])
+
+
+def test_bfloat16_autocast_follows_float32():
+    """Under CPU autocast the products run in bfloat16 (8 significant bits) and the gates
+    and cell state in float32: the outputs and gradients stay within the error oneDNN's own
+    bfloat16 LSTM makes on the same module, plus a margin of the same size."""
+    module, a, b = _pair(inputs=31, extra=200, hidden=64, layers=2, batch=8, frames=30)
+    exact_out = module(torch.cat([a, b], -1))[0]
+    exact = _grads(module, a, b, exact_out)
+    with torch.autocast("cpu", dtype=torch.bfloat16):
+        ours_out = lstm(module, a, b)
+        theirs_out = module(torch.cat([a, b], -1))[0]
+    assert ours_out.dtype == theirs_out.dtype == torch.bfloat16
+    ours, theirs = _grads(module, a, b, ours_out), _grads(module, a, b, theirs_out)
+    ours_error = (ours_out.float() - exact_out).abs().max()
+    theirs_error = (theirs_out.float() - exact_out).abs().max()
+    assert ours_error <= 2 * theirs_error + 1e-3, (ours_error, theirs_error)
+    for name in exact:
+        scale = exact[name].abs().max()
+        ours_error = (ours[name] - exact[name]).abs().max() / scale
+        theirs_error = (theirs[name] - exact[name]).abs().max() / scale
+        assert ours_error <= 2 * theirs_error + 0.01, (name, ours_error, theirs_error)
+
+
+def test_retain_graph_gives_the_same_gradients_twice():
+    module, a, b = _pair()
+    out = lstm(module, a, b).sum()
+    out.backward(retain_graph=True)
+    first = a.grad.clone()
+    a.grad = None
+    out.backward()
+    torch.testing.assert_close(a.grad, first)
+
+
+def test_refuses_what_it_does_not_compute():
+    module, a, b = _pair()
+    with pytest.raises(ValueError, match="a \\+ b = 12"):
+        lstm(module, a, b[..., :3])
+    with pytest.raises(ValueError, match="batch-first"):
+        lstm(nn.LSTM(12, 6, batch_first=False), a, b)
+    with pytest.raises(ValueError, match="one direction"):
+        lstm(nn.LSTM(12, 6, batch_first=True, bidirectional=True), a, b)
+    dropout = nn.LSTM(12, 6, 2, batch_first=True, dropout=0.5)
+    assert not can_use(dropout, a) and can_use(dropout.eval(), a)
+
+
+def test_moglow_training_step_is_the_same_with_either_lstm():
+    """The coupling networks train through ``lstm``; switching it off (nn.LSTM) gives the
+    same loss and gradients to float32 rounding."""
+    config = MoGlowConfig(steps=2, hidden=16, lstm_layers=2, window=20)
+    torch.manual_seed(0)
+    model = MoGlow(config)
+    x = torch.randn(4, 20, 66)
+    x[..., [0, 2]] = 0.0
+    model.loss(x)                                          # ActNorm's initialisation
+    results = []
+    for written_out in (True, False):
+        for module in model.modules():
+            if isinstance(module, LSTMCouplingNet):
+                module.written_out = written_out
+        torch.manual_seed(1)                               # the same history dropout
+        loss = model.loss(x)["loss"]
+        model.zero_grad(set_to_none=True)
+        loss.backward()
+        results.append((loss.detach(), [p.grad.clone() for p in model.parameters()]))
+    (loss_a, grads_a), (loss_b, grads_b) = results
+    torch.testing.assert_close(loss_a, loss_b, rtol=1e-5, atol=1e-6)
+    for a, b in zip(grads_a, grads_b):
+        torch.testing.assert_close(a, b, rtol=1e-4, atol=1e-6)
+
+
+def test_moglow_bf16_training_uses_it():
+    """Under the bf16 precision of training, MoGlow's coupling LSTMs compute in bfloat16
+    through ``lstm``: their output is bfloat16."""
+    config = MoGlowConfig(steps=1, hidden=8)
+    model = MoGlow(config)
+    net = next(m for m in model.modules() if isinstance(m, LSTMCouplingNet))
+    seen = []
+    net.lstm.register_forward_hook(lambda *args: seen.append("nn.LSTM"))
+    with torch.autocast("cpu", dtype=training.PRECISIONS["bf16"]):
+        out = net(torch.randn(2, 5, 30), torch.randn(2, 5, net.lstm.input_size - 30))
+    assert out.dtype == torch.bfloat16 and seen == []
+
+
+def test_pays_off_where_measured():
+    """The laptop MoGlow's coupling LSTM (64 units beside 673 inputs, 643 of them the
+    conditioning) in both precisions; the paper's (2 x 512) only in bfloat16."""
+    laptop, paper = nn.LSTM(673, 64, 1, batch_first=True), nn.LSTM(673, 512, 2, batch_first=True)
+    assert pays_off(laptop, 643, torch.float32) and pays_off(laptop, 643, torch.bfloat16)
+    assert not pays_off(paper, 643, torch.float32) and pays_off(paper, 643, torch.bfloat16)
+    assert not pays_off(laptop, 0, torch.float32)
+
+
+def test_a_conditioning_that_needs_a_gradient_gets_it():
+    net = LSTMCouplingNet(5, 40, 4, hidden=4)
+    nn.init.normal_(net.output.weight)
+    lo, cond = torch.randn(2, 3, 5, requires_grad=True), torch.randn(2, 3, 40, requires_grad=True)
+    net(lo, cond).sum().backward()
+    assert cond.grad is not None and cond.grad.abs().sum() > 0
