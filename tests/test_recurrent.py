@@ -31,8 +31,9 @@ def _grads(module, a, b, out):
 
 @pytest.mark.parametrize("layers", [1, 2])
 @pytest.mark.parametrize("extra_grad", [False, True])
-def test_matches_nn_lstm_in_float64(layers, extra_grad):
-    module, a, b = _pair(layers=layers, dtype=torch.float64)
+@pytest.mark.parametrize("frames", [4, 19])           # 19: a longer sequence
+def test_matches_nn_lstm_in_float64(layers, extra_grad, frames):
+    module, a, b = _pair(layers=layers, frames=frames, dtype=torch.float64)
     b.requires_grad_(extra_grad)
     expected_out = module(torch.cat([a, b], -1))[0]
     expected = _grads(module, a, b, expected_out)
