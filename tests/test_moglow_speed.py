@@ -59,3 +59,12 @@ def test_the_training_limit_puts_the_recurrent_products_at_their_own_rate():
     assert speed.recurrent_rate(8, speed.torch.float32) > 0
     assert speed.lstm_seconds(MoGlowConfig(steps=2, hidden=8), "bf16", repeats=1) > 0
     assert speed.lstm_seconds(MoGlowConfig(steps=2, hidden=8), "fp32", repeats=1, written_out=False) > 0
+
+
+def test_the_authors_adapter_says_where_their_code_must_be(monkeypatch, tmp_path):
+    """compare_authors.py imports the authors' code from MOGLOW_AUTHORS_CODE (nothing of it
+    is in motionlab); without a clone there it refuses with a clear message."""
+    speed = speed_script()
+    monkeypatch.setenv("MOGLOW_AUTHORS_CODE", str(tmp_path))
+    with pytest.raises(ValueError, match="MOGLOW_AUTHORS_CODE to a clone of github.com/simonalexanderson/StyleGestures"):
+        speed.load_adapter(BENCHMARKS / "compare_authors.py")
