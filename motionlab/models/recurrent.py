@@ -14,7 +14,8 @@ checkpoints are unchanged), with the classic schedule: one large product for the
 part of every frame's gates, then a loop over time with only ``h_{t-1} W_hh^T`` and the
 element-wise gates in it; backwards the same loop in reverse, then the weight gradients
 as large products. Under ``torch.autocast("cpu", dtype=torch.bfloat16)`` the products run
-in bfloat16 while the gates and the cell state stay float32. The equations (Hochreiter &
+in bfloat16 (their results rounded to it); the gates are summed and activated, and the cell
+state kept, in float32. The equations (Hochreiter &
 Schmidhuber 1997, with the forget gate; PyTorch's gate order ``i, f, g, o``)::
 
     [i, f, g, o] = x_t W_ih^T + b_ih + h_{t-1} W_hh^T + b_hh
@@ -34,6 +35,7 @@ from __future__ import annotations
 
 import torch
 from torch import nn
+from torch.autograd.function import once_differentiable
 
 
 def can_use(module: nn.LSTM, inputs: torch.Tensor) -> bool:
@@ -44,16 +46,25 @@ def can_use(module: nn.LSTM, inputs: torch.Tensor) -> bool:
 
 
 def product_dtype(inputs: torch.Tensor) -> torch.dtype:
-    """The dtype the LSTM's products run in: CPU autocast's, else the inputs'."""
-    return torch.get_autocast_dtype("cpu") if torch.is_autocast_enabled("cpu") else inputs.dtype
+    """The dtype the LSTM's products run in: CPU autocast's for float32 inputs (autocast
+    leaves other dtypes alone), else the inputs'."""
+    if torch.is_autocast_enabled("cpu") and inputs.dtype == torch.float32:
+        return torch.get_autocast_dtype("cpu")
+    return inputs.dtype
 
 
 def pays_off(module: nn.LSTM, extra_width: int, dtype: torch.dtype) -> bool:
-    """Whether :func:`lstm` is measured faster than ``nn.LSTM`` on the CPU for this shape:
-    always with products in a 16-bit format (autocast), and in float32 when the input
-    gradient it skips (of ``extra_width`` input columns that need none) is at least a fifth
-    of the LSTM's arithmetic (MoGlow laptop: 29 %, 1.3x faster; paper: 10 %, 0.9x)."""
-    if dtype in (torch.bfloat16, torch.float16):
+    """Whether :func:`lstm` was measured faster than ``nn.LSTM`` on the CPU for an LSTM
+    whose last ``extra_width`` inputs need no gradient (MoGlow's couplings): in bfloat16
+    when there are such inputs; in float32 when the input gradient it skips is at least a
+    fifth of the LSTM's arithmetic (MoGlow laptop: 29 %, 1.3x faster; paper: 10 %, 0.9x).
+    Without such inputs (LSTM-3LR) it was slower. In float16, where oneDNN has no CPU LSTM
+    kernel here (``nn.LSTM`` fails), it is the one that runs."""
+    if dtype == torch.float16:
+        return True
+    if extra_width == 0:
+        return False
+    if dtype == torch.bfloat16:
         return True
     size, first = 4 * module.hidden_size, module.input_size + module.hidden_size
     products = 3 * size * (first + 2 * module.hidden_size * (module.num_layers - 1))   # per frame and row
@@ -61,8 +72,8 @@ def pays_off(module: nn.LSTM, extra_width: int, dtype: torch.dtype) -> bool:
 
 
 def lstm(module: nn.LSTM, inputs: torch.Tensor, extra: torch.Tensor | None = None) -> torch.Tensor:
-    """The outputs ``h_t`` of every layer-``L`` step, ``(batch, frames, hidden)``, of
-    ``module`` run from a zero state over ``torch.cat([inputs, extra], -1)``.
+    """The last layer's ``h_t`` at every frame, ``(batch, frames, hidden)``, of ``module``
+    run from a zero state over ``torch.cat([inputs, extra], -1)``.
 
     Args:
         module: a batch-first ``nn.LSTM`` (see :func:`can_use`); its weights are used as they
@@ -71,8 +82,8 @@ def lstm(module: nn.LSTM, inputs: torch.Tensor, extra: torch.Tensor | None = Non
         extra: ``(batch, frames, b)`` more input features, or ``None``. Kept apart so that
             its gradient is computed only if it requires one (MoGlow's conditioning does not).
 
-    Under CPU autocast to bfloat16, returns bfloat16 as ``nn.LSTM`` does; else the inputs'
-    dtype.
+    Float32 inputs under CPU autocast to bfloat16 give bfloat16, as ``nn.LSTM`` does;
+    otherwise the inputs' dtype.
     """
     if not can_use(module, inputs):
         raise ValueError("lstm: expected a batch-first nn.LSTM with biases, one direction, no projection and no "
@@ -140,7 +151,13 @@ class _LSTMLayer(torch.autograd.Function):
         return outputs
 
     @staticmethod
+    @once_differentiable
     def backward(ctx, grad_outputs):
+        with torch.autocast("cpu", enabled=False):               # the dtypes below are chosen by hand
+            return _LSTMLayer._backward(ctx, grad_outputs)
+
+    @staticmethod
+    def _backward(ctx, grad_outputs):
         x, w_ih, w_hh, gates, cells, tanh_cells, outputs = ctx.saved_tensors
         frames, batch, size = cells.shape
         dtype, exact = w_ih.dtype, cells.dtype
@@ -212,7 +229,7 @@ def _double_g_rows(weight: torch.Tensor, dtype: torch.dtype, size: int, copy: bo
 
 
 def _tanh_(x: torch.Tensor) -> torch.Tensor:
-    """``tanh`` in place as ``2 sigmoid(2x) - 1``: the same values (to float32 rounding) in a
-    quarter of the time of ``torch.tanh`` on the CPUs we measured, whose sigmoid kernel is
-    far faster than their tanh."""
+    """``tanh`` in place as ``2 sigmoid(2x) - 1``: the same values to within about 1e-7
+    (absolute) in a quarter of the time of ``torch.tanh`` on the CPU we measured, whose
+    sigmoid kernel is far faster than its tanh."""
     return x.mul_(2).sigmoid_().mul_(2).sub_(1)
