@@ -178,8 +178,6 @@ def training_step(config, batch: int, frames: int):
             torch.nn.utils.clip_grad_value_(graph.parameters(), 5)
             torch.nn.utils.clip_grad_norm_(graph.parameters(), 100)
         optim.step()
-        step.loss = float(loss.detach())
-    step.graph = graph
     return step
 
 
@@ -207,5 +205,4 @@ def streaming_step(config, streams: int):
         frame[:, MODELLED] = sampled
         frame[:, N_POSE:] = control[:, 0]
         return torch.from_numpy(frame)
-    step.graph = graph
     return step

@@ -110,16 +110,16 @@ def conditioning_elements(model: MoGlow) -> int:
     return sum(4 * net.lstm.hidden_size * model.cond_channels for net in nets)
 
 
-def training_limit(model: MoGlow, large: float, recurrent: float) -> float:
+def training_limit(model: MoGlow, large: float, hundred_rows: float) -> float:
     """Seconds a training step cannot beat: every weight matrix takes 3 products per frame
     (forwards, the gradient of its input, the gradient of its weights; the conditioning
     needs no input gradient), at the large-product rate ``large`` (GFLOP/s), except the
     recurrent ones' forward and input-gradient products, which must go frame by frame at
-    the 100-row rate ``recurrent``."""
+    the 100-row rate ``hundred_rows`` (GFLOP/s)."""
     frames = TRAIN_BATCH * TRAIN_FRAMES
     hh = recurrent_elements(model)
     other = weight_elements(model) - hh
-    return 2 * frames * ((3 * other - conditioning_elements(model)) / large + hh / large + 2 * hh / recurrent) / 1e9
+    return 2 * frames * ((3 * other - conditioning_elements(model)) / large + hh / large + 2 * hh / hundred_rows) / 1e9
 
 
 def best_time(work, repeats: int = 5) -> float:
@@ -193,8 +193,8 @@ def lstm_seconds(config: MoGlowConfig, precision: str = "fp32", repeats: int = 2
     backwards, with the gradient of the half-pose they read but not of the conditioning, of
     the ``config.steps`` coupling LSTMs over the step's 100 windows of 70 frames, and
     nothing else of the model. ``written_out``: as MoGlow trains them on the CPU (through
-    :func:`motionlab.models.recurrent.lstm` where it pays off); ``False``: ``nn.LSTM``'s
-    own kernels."""
+    :func:`motionlab.models.recurrent.from_zero_state`); ``False``: ``nn.LSTM``'s own
+    kernels."""
     torch.manual_seed(0)
     model = MoGlow(config)
     lstms = [m.lstm for m in model.modules() if isinstance(m, LSTMCouplingNet)]
@@ -203,9 +203,7 @@ def lstm_seconds(config: MoGlowConfig, precision: str = "fp32", repeats: int = 2
     low = training.PRECISIONS[precision]
 
     def run(lstm):
-        if written_out and recurrent.pays_off(lstm, cond.shape[-1], recurrent.product_dtype(half)):
-            return recurrent.lstm(lstm, half, cond)
-        return lstm(torch.cat([half, cond], -1))[0]
+        return recurrent.from_zero_state(lstm, half, cond) if written_out else lstm(torch.cat([half, cond], -1))[0]
 
     def work():
         with torch.autocast("cpu", dtype=low) if low is not None else nullcontext():
@@ -299,7 +297,8 @@ def load_adapter(path: str | Path):
     return module
 
 
-def compare(other, configs: dict, rounds: int = 4, frames: int = 100, trained=None, bf16: bool | None = None) -> list[dict]:
+def compare(other, configs: dict, rounds: int = 4, frames: int = 100, trained=None,
+            bf16: bool | None = None) -> list[dict]:
     """Time the adapter ``other`` beside motionlab (through ``compare_motionlab.py``) for each
     of ``configs`` (``{name: MoGlowConfig}``): seconds of a training step (100 windows of 80
     frames; only for the names in ``trained``, default all), frames per second of one
@@ -423,7 +422,8 @@ def main() -> None:
                                        "weight bytes": size * elements}
             first = dtype == torch.float32
             print(f"| {name if first else ''} | {f'{4 * elements / 1e6:.1f}' if first else ''} | {label} "
-                  f"| {train:.2f} | {lstms:.2f} / {onednn_lstms:.2f} | {train_limit:.2f} | {peak:.0f} | {one:.1f} | {one_limit:.0f} "
+                  f"| {train:.2f} | {lstms:.2f} / {onednn_lstms:.2f} | {train_limit:.2f} | {peak:.0f} "
+                  f"| {one:.1f} | {one_limit:.0f} "
                   f"| {crowd:.0f} | {crowd_limit:.0f} |")
     if recurrent_rates:
         print("\nRecurrent products of training, 100 rows x H by H x 4H (GFLOP/s): " + ", ".join(recurrent_rates))

@@ -66,5 +66,6 @@ def test_the_authors_adapter_says_where_their_code_must_be(monkeypatch, tmp_path
     is in motionlab); without a clone there it refuses with a clear message."""
     speed = speed_script()
     monkeypatch.setenv("MOGLOW_AUTHORS_CODE", str(tmp_path))
-    with pytest.raises(ValueError, match="MOGLOW_AUTHORS_CODE to a clone of github.com/simonalexanderson/StyleGestures"):
+    clone = "MOGLOW_AUTHORS_CODE to a clone of github.com/simonalexanderson/StyleGestures"
+    with pytest.raises(ValueError, match=clone):
         speed.load_adapter(BENCHMARKS / "compare_authors.py")

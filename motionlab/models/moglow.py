@@ -139,8 +139,9 @@ class LSTMCouplingNet(nn.Module):
     returns ``(batch, frames, out)``. It starts from a zero state, unless the network is
     :attr:`carrying` (sampling): then it starts from the state the previous call left, and
     stores the new one, so one call per frame runs the LSTM through time (eq. 17). From a
-    zero state on the CPU it runs the same LSTM through :func:`recurrent.lstm` where that is
-    measured faster (:func:`recurrent.pays_off`): it skips the conditioning's gradient.
+    zero state it runs the same LSTM through :func:`recurrent.from_zero_state`, which on the
+    CPU uses the written-out LSTM where that is measured faster (it skips the
+    conditioning's gradient).
     """
 
     def __init__(self, in_channels: int, cond_channels: int, out_channels: int,
@@ -152,13 +153,11 @@ class LSTMCouplingNet(nn.Module):
         nn.init.zeros_(self.output.bias)
         self.carrying = False
         self.state: tuple[torch.Tensor, torch.Tensor] | None = None
-        self.written_out = True           # recurrent.lstm on the CPU where it pays off (False: nn.LSTM always)
+        self.written_out = True           # recurrent.from_zero_state where it pays off (False: nn.LSTM always)
 
     def forward(self, lo: torch.Tensor, cond: torch.Tensor | None = None) -> torch.Tensor:
-        needless = 0 if cond is None or cond.requires_grad else cond.shape[-1]     # input columns needing no gradient
-        if self.written_out and not self.carrying and recurrent.can_use(self.lstm, lo) and recurrent.pays_off(
-                self.lstm, needless, recurrent.product_dtype(lo)):
-            return self.output(recurrent.lstm(self.lstm, lo, cond))
+        if self.written_out and not self.carrying:
+            return self.output(recurrent.from_zero_state(self.lstm, lo, cond))
         inputs = lo if cond is None else torch.cat([lo, cond], dim=-1)
         hidden, state = self.lstm(inputs, self.state if self.carrying else None)
         if self.carrying:

@@ -15,8 +15,8 @@ part of every frame's gates, then a loop over time with only ``h_{t-1} W_hh^T`` 
 element-wise gates in it; backwards the same loop in reverse, then the weight gradients
 as large products. Under ``torch.autocast("cpu", dtype=torch.bfloat16)`` the products run
 in bfloat16 (their results rounded to it); the gates are summed and activated, and the cell
-state kept, in float32. The equations (Hochreiter &
-Schmidhuber 1997, with the forget gate; PyTorch's gate order ``i, f, g, o``)::
+state kept, in float32. The equations (Hochreiter & Schmidhuber 1997, with the forget
+gate; PyTorch's gate order ``i, f, g, o``)::
 
     [i, f, g, o] = x_t W_ih^T + b_ih + h_{t-1} W_hh^T + b_hh
     i, f, o = sigmoid(i, f, o);  g = tanh(g)
@@ -69,6 +69,17 @@ def pays_off(module: nn.LSTM, extra_width: int, dtype: torch.dtype) -> bool:
     size, first = 4 * module.hidden_size, module.input_size + module.hidden_size
     products = 3 * size * (first + 2 * module.hidden_size * (module.num_layers - 1))   # per frame and row
     return size * extra_width >= products / 5
+
+
+def from_zero_state(module: nn.LSTM, inputs: torch.Tensor, extra: torch.Tensor | None = None) -> torch.Tensor:
+    """``module``'s last-layer outputs ``(batch, frames, hidden)`` from a zero state over
+    ``torch.cat([inputs, extra], -1)``: through :func:`lstm` where that is measured faster
+    (:func:`can_use` and :func:`pays_off`; ``extra`` counts as needing no gradient unless it
+    requires one), else through ``module`` itself."""
+    needless = 0 if extra is None or extra.requires_grad else extra.shape[-1]
+    if can_use(module, inputs) and pays_off(module, needless, product_dtype(inputs)):
+        return lstm(module, inputs, extra)
+    return module(inputs if extra is None else torch.cat([inputs, extra], dim=-1))[0]
 
 
 def lstm(module: nn.LSTM, inputs: torch.Tensor, extra: torch.Tensor | None = None) -> torch.Tensor:
@@ -141,7 +152,7 @@ class _LSTMLayer(torch.autograd.Function):
                 torch.mul(i, c_in, out=c)                            # c_t = f c_{t-1} + i g
                 if c_prev is not None:
                     c.addcmul_(f, c_prev)
-                _tanh_(torch.mul(c, 1, out=tanh_c))
+                _tanh_(tanh_c.copy_(c))
                 torch.mul(o, tanh_c, out=h)                          # h_t = o tanh(c_t)
                 c_prev, h_prev = c, h
         ctx.save_for_backward(x, w_ih, w_hh, gates, cells, tanh_cells, outputs)
@@ -174,10 +185,7 @@ class _LSTMLayer(torch.autograd.Function):
                     reversed(grad_outputs.unbind(0)), reversed(grad_gates.unbind(0)))
         for t, g, tanh_c, grad_out, grad_g in steps:
             i, f, c_in, o = g.split(size, 1)
-            if d is None:
-                d_t = grad_g
-            else:
-                d_t = d
+            d_t = grad_g if d is None else d                    # written straight into grad_gates in float32
             d_i, d_f, d_g, d_o = d_t.split(size, 1)
             grad_h.add_(grad_out)
             # sigmoid' = s (1 - s) for i, f, o; for the doubled g rows (1 - g^2) / 2
