@@ -301,6 +301,25 @@ def test_stream_with_two_lstm_layers_and_bfloat16_weights():
         model.stream(x[:, :4], weights=torch.float16)
 
 
+@pytest.mark.parametrize("streams", [1, 2])
+def test_stream_with_three_lstm_layers_and_trained_biases_equals_the_batch_sampler(streams):
+    # the stream keeps every coupling's inputs and hidden states side by side in one buffer,
+    # gives the conditioning's part of all first layers in one product (one per coupling
+    # for several streams), and folds the output layer's bias and σ(2) into its own maps
+    model = trained_like(replace(SMALL, lstm_layers=3))
+    with torch.no_grad():
+        for module in model.modules():
+            if isinstance(module, LSTMCouplingNet):
+                module.output.bias.normal_(0, 0.5)
+    x = features(streams, 12)
+    noise = torch.randn(streams, 8, 61, generator=torch.Generator().manual_seed(7))
+    reference = model.sample(x[:, 4:, -3:], x[:, :4], temperature=0.5, noise=noise)
+    stream = model.stream(x[:, :4], temperature=0.5)
+    assert stream._product == ("transposed" if streams == 1 else "product")
+    assert len(stream._cond_chunks) == (1 if streams == 1 else SMALL.steps)
+    assert torch.allclose(stream.run(x[:, 4:, -3:], noise), reference, atol=1e-4)
+
+
 @pytest.mark.parametrize("product", ["matrix-vector", "own product", "product"])
 def test_one_bfloat16_stream_with_any_kernel_follows_the_float32_stream(product):
     # one stream picks its kernel by the CPU (native bfloat16 or not); every one is checked here

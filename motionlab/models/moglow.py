@@ -394,20 +394,33 @@ class MoGlow(MotionFlow):
 class MoGlowStream:
     """Real-time MoGlow: feed one control frame, get one pose back (§4.2, Fig. 3).
 
-    Holds the last ``τ`` poses and controls and every coupling's LSTM state. At creation
-    it precomputes, once, what does not change from frame to frame: the inverse of each 1x1
-    map ``W^-1`` joined with its step's ActNorm inverse into one affine map (so a frame
-    costs matrix products, not triangular solves), and each LSTM layer's two weight
-    matrices joined into one ``[W_ih W_hh]`` (one matrix-vector product per layer and
-    frame; ``nn.LSTM`` called one frame at a time repacks its weights on every call), laid
-    out for the fastest kernel of this CPU. :meth:`step` then runs the
+    Holds the last ``τ`` poses and controls and every coupling's LSTM state, and runs the
     flow backwards (coupling inverse -> ``W^-1`` -> ActNorm inverse, step ``K`` to 1) in
-    inference mode. Several streams (characters) run at once as a batch.
+    inference mode, one frame per :meth:`step`. Several streams (characters) run at once as
+    a batch.
 
     Generating one frame reads every weight once, so one stream is limited by memory
-    bandwidth: ``weights=torch.bfloat16`` halves the bytes (the LSTM products run in
-    bfloat16, everything else in float32; frames then differ from the float32 ones by
-    about 1e-2 in normalised units).
+    bandwidth, and at the paper's size by the few hundred small operations beside its
+    products. So at creation the stream precomputes, once, what does not change from frame
+    to frame, and lays the rest out so that a frame allocates nothing:
+
+    * each step's ``W^-1`` joined with its ActNorm inverse into one affine map (matrix
+      products, not triangular solves);
+    * the first LSTM layer's weights on the conditioning, of all ``K`` couplings, stacked
+      into one matrix: the conditioning is the same for every coupling, so one product per
+      frame gives that part of every coupling's gates;
+    * each layer's remaining weights joined, ``[W_ih W_hh]`` on ``[input, h_{t-1}]``, and
+      every coupling's inputs and hidden states kept side by side in one buffer
+      ``[b_lo, h_1, h_2, ...]``, so each layer is one product on a slice of it, and writes
+      its new ``h`` into it in place;
+    * the output layer's rows rearranged so that the coupling's inverse scale
+      ``1 / s' = σ(2) (1 + exp(-h_s' - 2))`` (:data:`~motionlab.models.flows.SCALE_SHIFT`)
+      is one exponential, with ``σ(2)`` moved into the next affine map;
+    * the weights laid out for the fastest product kernel of this CPU (below).
+
+    ``weights=torch.bfloat16`` halves the bytes read per frame: the LSTM products run in
+    bfloat16, everything else in float32; frames then differ from the float32 ones by about
+    1e-2 in normalised units.
 
     >>> stream = model.stream(history)            # (batch, τ, 66) normalised features
     >>> frame = stream.step(control)              # (batch, 3) -> (batch, 66)
@@ -451,7 +464,7 @@ class MoGlowStream:
         # How one frame's LSTM products run on a CPU (measured over paper-size layers, see
         # benchmarks/moglow_speed.py). One stream only reads weights, and the kernels differ:
         # * bfloat16, native arithmetic (AVX512-BF16, AMX): PyTorch's own matrix product, not
-        #   oneDNN's, reads them at about the memory bandwidth (~30 against ~17 GB/s);
+        #   oneDNN's, reads them at about the memory bandwidth (~25-30 against ~15 GB/s);
         # * bfloat16, emulated: the matrix-vector kernel reads them faster than a product;
         # * float32: oneDNN's product of the row with the weights stored transposed,
         #   ``(in, 4H)``, reads them faster (~21 GB/s) than against ``(4H, in)`` (~14).
@@ -463,59 +476,111 @@ class MoGlowStream:
         elif one_cpu_stream:
             self._product = "transposed"
         with torch.inference_mode():
-            self._steps = [self._precompute(step, weights, self._product == "transposed")
-                           for step in model.flow.blocks]
-            hidden = model.config.hidden
-            # (h, c) of every LSTM layer of every coupling: h_{τ+1} = 0 (footnote 2)
-            self._states = [[(history.new_zeros(self.batch, hidden), history.new_zeros(self.batch, hidden))
-                             for _ in step["layers"]] for step in self._steps]
+            self._precompute(device)
 
-    @staticmethod
-    def _precompute(step: FlowStep, dtype: torch.dtype, transposed: bool = False) -> dict:
-        actnorm, linear, coupling = step.actnorm, step.linear, step.coupling
-        w_inverse = torch.linalg.inv(linear.weight().double()).float()
-        lstm, output = coupling.network.lstm, coupling.network.output
-        hidden = lstm.hidden_size
+    def _operand(self, weight: torch.Tensor) -> torch.Tensor:
+        """``weight`` ``(out, in)`` as the right-hand operand ``(in, out)`` of this stream's
+        products: stored transposed for the ``"transposed"`` kernel, else a view of the
+        ``(out, in)`` matrix."""
+        weight = weight.to(self.weights)
+        return weight.T.contiguous() if self._product == "transposed" else weight.contiguous().T
+
+    def _multiply(self, inputs: torch.Tensor, operand: torch.Tensor, out: torch.Tensor) -> None:
+        """``out = inputs @ operand`` with this stream's kernel, written into ``out``."""
+        if self._product == "matrix-vector":
+            torch.mv(operand.T, inputs[0], out=out[0])
+        else:
+            torch.mm(inputs, operand, out=out)
+
+    def _precompute(self, device: torch.device) -> None:
+        """Lay out the weights and the buffers of every coupling (see the class docstring);
+        the LSTM states start at zero (footnote 2)."""
+        model, batch = self.model, self.batch
+        hidden, layers, n_steps = model.config.hidden, model.config.lstm_layers, model.config.steps
+        gates = 4 * hidden
+        new = partial(torch.zeros, device=device)
         # torch stores the gates as rows i, f, g, o; reordered to i, f, o, g, the three
-        # sigmoid gates are one slice (one sigmoid call per layer and frame)
+        # sigmoid gates are one slice (one sigmoid per layer and frame)
         order = torch.cat([torch.arange(0, 2 * hidden), torch.arange(3 * hidden, 4 * hidden),
-                           torch.arange(2 * hidden, 3 * hidden)])
-        layers = []
-        for k in range(lstm.num_layers):
-            joined = torch.cat([getattr(lstm, f"weight_ih_l{k}"), getattr(lstm, f"weight_hh_l{k}")], dim=1)[order]
-            bias = (getattr(lstm, f"bias_ih_l{k}") + getattr(lstm, f"bias_hh_l{k}"))[order]
-            joined = joined.to(dtype)
-            layers.append(((joined.T if transposed else joined).contiguous(), bias.clone()))
-        # W^-1 then ActNorm^-1 is one affine map: (x W^-T - b) s = x (W^-T s) - b s
-        scale = torch.exp(-actnorm.log_scale)
-        return {"unmix": (w_inverse.T * scale).contiguous(), "unmix_bias": (-actnorm.bias * scale).clone(),
-                "n_lo": coupling.n_lo, "n_hi": coupling.n_hi,
-                "layers": layers, "output": (output.weight.clone(), output.bias.clone())}
+                           torch.arange(2 * hidden, 3 * hidden)]).to(device)
+        sigma_2 = math.exp(_LOG_SIGMOID_SHIFT)                            # σ(2)
+        # scratch shared by every layer: the product, the gates (float32), tanh(c)
+        self._product_out = new(batch, gates, dtype=self.weights)
+        self._gates = new(batch, gates)
+        self._tanh_cell = new(batch, hidden)
+        self._last_hidden = new(batch, hidden)
+        # the poses between steps: z in, the coupling's output, then the next z (float32)
+        self._z, self._coupled = new(batch, model.n_modelled), new(batch, model.n_modelled)
+        self._steps, cond_weights, cond_biases = [], [], []
+        for step in model.flow.blocks:
+            actnorm, linear, coupling = step.actnorm, step.linear, step.coupling
+            lstm, output = coupling.network.lstm, coupling.network.output
+            n_lo, n_hi = coupling.n_lo, coupling.n_hi
+            weight_ih = lstm.weight_ih_l0[order]                          # (4H, n_lo + cond)
+            cond_weights.append(weight_ih[:, n_lo:])
+            cond_biases.append((lstm.bias_ih_l0 + lstm.bias_hh_l0)[order])
+            operands = [self._operand(torch.cat([weight_ih[:, :n_lo], lstm.weight_hh_l0[order]], dim=1))]
+            biases = [None]                                               # layer 0's is in the conditioning's part
+            for k in range(1, layers):
+                operands.append(self._operand(torch.cat([getattr(lstm, f"weight_ih_l{k}")[order],
+                                                         getattr(lstm, f"weight_hh_l{k}")[order]], dim=1)))
+                biases.append((getattr(lstm, f"bias_ih_l{k}") + getattr(lstm, f"bias_hh_l{k}"))[order])
+            # [b_lo, h_1, ..., h_L] of this coupling, in the products' dtype; h = 0 at first (footnote 2)
+            buffer = new(batch, n_lo + layers * hidden, dtype=self.weights)
+            inputs = [buffer[:, :n_lo + hidden]] + [buffer[:, n_lo + (k - 1) * hidden:n_lo + (k + 1) * hidden]
+                                                    for k in range(1, layers)]
+            # output rows: the shift divided by σ(2), and -h_s' - 2 for the scale (see the class)
+            rows = torch.cat([output.weight[:n_hi] / sigma_2, -output.weight[n_hi:]])
+            bias = torch.cat([output.bias[:n_hi] / sigma_2, -output.bias[n_hi:] - SCALE_SHIFT])
+            # W^-1 then ActNorm^-1 is one affine map: (x W^-T - b) s = x (W^-T s) - b s; the
+            # rows that take the coupled half also take the σ(2) of its inverse scale
+            unmix = torch.linalg.inv(linear.weight().double()).T.float() * torch.exp(-actnorm.log_scale)
+            unmix[n_lo:] *= sigma_2
+            self._steps.append({
+                "lo": buffer[:, :n_lo], "inputs": inputs, "operands": operands, "biases": biases,
+                "hidden": [buffer[:, n_lo + k * hidden:n_lo + (k + 1) * hidden] for k in range(layers)],
+                "cells": [new(batch, hidden) for _ in range(layers)],
+                "output_bias": bias, "output": rows.T.contiguous(), "out": new(batch, 2 * n_hi),
+                "unmix_bias": -actnorm.bias * torch.exp(-actnorm.log_scale), "unmix": unmix.contiguous(),
+                "n_lo": n_lo, "n_hi": n_hi})
+        self._cond_operand = self._operand(torch.cat(cond_weights))                 # (cond, K·4H)
+        self._cond_bias = torch.cat(cond_biases)
+        self._cond_product = new(batch, n_steps * gates, dtype=self.weights)
+        self._cond_gates = new(batch, n_steps * gates)
+        # several streams: one product per coupling, measured faster in float32 than one stacked
+        # product of 64 rows (90 against 65 GFLOP/s); one stream: one product
+        chunk = gates if self._product == "product" else n_steps * gates
+        self._cond_chunks = [(self._cond_operand[:, start:start + chunk], self._cond_product[:, start:start + chunk])
+                             for start in range(0, n_steps * gates, chunk)]
+        for k, step in enumerate(self._steps):
+            step["cond_gates"] = self._cond_gates[:, k * gates:(k + 1) * gates]
+            step["shift"], step["exponent"] = step["out"][:, :step["n_hi"]], step["out"][:, step["n_hi"]:]
+            n_lo = step["n_lo"]
+            step["z_lo"], step["z_hi"] = self._z[:, :n_lo], self._z[:, n_lo:]
+            step["coupled_lo"], step["coupled_hi"] = self._coupled[:, :n_lo], self._coupled[:, n_lo:]
+        h = hidden
+        self._gate_views = (self._gates[:, :3 * h], self._gates[:, 3 * h:],              # sigmoid, tanh
+                            self._gates[:, :h], self._gates[:, h:2 * h], self._gates[:, 2 * h:3 * h])  # i, f, o
 
-    def _coupling_network(self, k: int, inputs: torch.Tensor) -> torch.Tensor:
-        """Coupling ``k``'s network on one frame: the LSTM layers (gates reordered i, f, o,
-        g by :meth:`_precompute`), carrying their state, then the output layer.
-        ``(batch, in)`` -> ``(batch, 2 * n_hi)``."""
-        states = self._states[k]
-        for layer, (weight, bias) in enumerate(self._steps[k]["layers"]):
-            h, c = states[layer]
-            joined = torch.cat([inputs, h], dim=1)
-            if self._product == "transposed":                        # float32, weight (in, 4H)
-                gates = torch.addmm(bias, joined, weight)
-            elif weight.dtype == torch.float32:
-                gates = F.linear(joined, weight, bias)
-            elif self._product == "matrix-vector":                   # one stream, emulated bfloat16
-                gates = bias + torch.mv(weight, joined[0].to(weight.dtype))[None]
-            else:                                                    # bfloat16 product, float32 sum
-                gates = bias + F.linear(joined.to(weight.dtype), weight)
-            hidden = h.shape[1]
-            sigmoid = torch.sigmoid(gates[:, :3 * hidden])
-            i, f, o = sigmoid[:, :hidden], sigmoid[:, hidden:2 * hidden], sigmoid[:, 2 * hidden:]
-            c = torch.addcmul(f * c, i, torch.tanh(gates[:, 3 * hidden:]))
-            h = o * torch.tanh(c)
-            states[layer] = (h, c)
-            inputs = h
-        return F.linear(inputs, *self._steps[k]["output"])
+    def _coupling_network(self, step: dict) -> torch.Tensor:
+        """One coupling's network on this frame's ``b_lo`` (already in its buffer): the LSTM
+        layers (eq. 17, carrying their state; gates reordered i, f, o, g), then the output
+        layer. Returns ``(batch, 2 * n_hi)``: ``[t' / σ(2), -h_s' - 2]``."""
+        sigmoid_gates, cell_gate, input_gate, forget_gate, output_gate = self._gate_views
+        for layer, (inputs, operand, bias, cell) in enumerate(zip(step["inputs"], step["operands"],
+                                                                   step["biases"], step["cells"])):
+            self._multiply(inputs, operand, self._product_out)
+            torch.add(self._product_out, step["cond_gates"] if bias is None else bias, out=self._gates)
+            sigmoid_gates.sigmoid_()
+            cell_gate.tanh_()
+            cell.mul_(forget_gate).addcmul_(input_gate, cell_gate)          # c_t = f c_{t-1} + i g
+            torch.tanh(cell, out=self._tanh_cell)
+            if layer + 1 < len(step["cells"]):                              # h_t = o tanh(c_t), into the buffer
+                torch.mul(output_gate, self._tanh_cell, out=step["hidden"][layer])
+            else:
+                torch.mul(output_gate, self._tanh_cell, out=self._last_hidden)
+                step["hidden"][layer].copy_(self._last_hidden)
+        return torch.addmm(step["output_bias"], self._last_hidden, step["output"], out=step["out"])
 
     def _normalised_control(self, control) -> torch.Tensor:
         c = self.model.config.n_control
@@ -553,15 +618,22 @@ class MoGlowStream:
                 raise ValueError(f"noise: expected {shape}, got {tuple(noise.shape)}")
             controls = torch.cat([self.controls, control[:, None]], dim=1)       # c_{t-τ .. t}
             cond = MoGlow.frame_conditioning(self._history_scale * self.poses, controls)[:, 0]
-            x = self.temperature * noise
-            for k in reversed(range(len(self._steps))):                          # f_K^-1 ... f_1^-1 undone
-                step = self._steps[k]
-                lo = x[:, :step["n_lo"]]
-                h = self._coupling_network(k, torch.cat([lo, cond], dim=1))
-                shift, raw_scale = h[:, :step["n_hi"]], h[:, step["n_hi"]:]
-                log_scale = nn.functional.logsigmoid(raw_scale + SCALE_SHIFT) - _LOG_SIGMOID_SHIFT
-                x = torch.cat([lo, x[:, step["n_lo"]:] * torch.exp(-log_scale) - shift], dim=1)   # eq. 6 inverted
-                x = torch.addmm(step["unmix_bias"], x, step["unmix"])                          # W^-1, ActNorm^-1
+            # the conditioning's part of every coupling's first-layer gates, in one product
+            cond = cond.to(self.weights)
+            for operand, out in self._cond_chunks:
+                self._multiply(cond, operand, out)
+            torch.add(self._cond_product, self._cond_bias, out=self._cond_gates)
+            torch.mul(noise, self.temperature, out=self._z)
+            for step in reversed(self._steps):                                   # f_K^-1 ... f_1^-1 undone
+                step["lo"].copy_(step["z_lo"])
+                self._coupling_network(step)
+                # eq. 6 inverted, b_hi = z_hi / s' - t', divided by σ(2) (the unmix multiplies it back):
+                # z_hi (1 + e) - t' / σ(2), with e = exp(-h_s' - 2) = 1 / (σ(2) s') - 1
+                torch.addcmul(step["z_hi"], step["z_hi"], step["exponent"].exp_(), out=step["coupled_hi"])
+                step["coupled_hi"].sub_(step["shift"])
+                step["coupled_lo"].copy_(step["z_lo"])
+                torch.addmm(step["unmix_bias"], self._coupled, step["unmix"], out=self._z)   # W^-1, ActNorm^-1
+            x = self._z.clone()
             self.poses = torch.cat([self.poses[:, 1:], x[:, None]], dim=1)
             self.controls = controls[:, 1:]
             self.frames += 1
