@@ -67,6 +67,32 @@ def test_the_invertible_1x1_and_the_couplings_compute_in_float32_under_autocast(
 
 
 @bf16_cpu
+@pytest.mark.parametrize("kind", ["conv", "mlp", "lstm"])
+def test_coupling_networks_compute_their_output_layer_in_float32_under_autocast(kind):
+    # the output layer gives the shift and the raw scale, whose logarithms are the coupling's
+    # log-determinant: only the hidden layers compute in bfloat16
+    from motionlab.models import flows
+    from motionlab.models.moglow import LSTMCouplingNet
+    make = {"conv": flows.ConvCouplingNet, "mlp": flows.MLPCouplingNet, "lstm": LSTMCouplingNet}[kind]
+    torch.manual_seed(0)
+    network = make(3, 5, 6, hidden=8)
+    last = network.output if kind == "lstm" else network.layers[-1]
+    with torch.no_grad():
+        last.weight.normal_(0, 1.0)
+    hiddens = []
+    last.register_forward_hook(lambda module, inputs, output: hiddens.append(inputs[0]))
+    lo, cond = torch.randn(2, 7, 3), torch.randn(2, 7, 5)
+    with torch.autocast("cpu", dtype=torch.bfloat16):
+        out = network(lo, cond)
+    assert out.dtype == torch.float32
+    hidden = hiddens[0]
+    assert hidden.dtype == torch.float32                                  # the bf16 activations, widened
+    assert torch.equal(hidden, hidden.to(torch.bfloat16).float())         # ... from bfloat16
+    exact = last(hidden).transpose(1, 2) if kind == "conv" else last(hidden)
+    torch.testing.assert_close(out, exact, atol=0, rtol=0)
+
+
+@bf16_cpu
 @pytest.mark.parametrize("make, frames", [(lambda: ConvAutoencoder(ConvAEConfig(window=16, filters=8, width=3)), 16),
                                           (lambda: MoGlow(MOGLOW), 16)], ids=["conv_ae", "moglow"])
 def test_a_short_bf16_run_follows_the_float32_run(make, frames):

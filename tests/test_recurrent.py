@@ -157,15 +157,18 @@ def test_moglow_training_step_is_the_same_with_either_lstm():
 
 def test_moglow_bf16_training_uses_it():
     """Under the bf16 precision of training, MoGlow's coupling LSTMs compute in bfloat16
-    through ``lstm``: their output is bfloat16."""
+    through ``lstm`` (not ``nn.LSTM``); the network's output layer then computes in float32."""
     config = MoGlowConfig(steps=1, hidden=8)
     model = MoGlow(config)
     net = next(m for m in model.modules() if isinstance(m, LSTMCouplingNet))
-    seen = []
+    seen, hidden = [], []
     net.lstm.register_forward_hook(lambda *args: seen.append("nn.LSTM"))
+    net.output.register_forward_pre_hook(lambda module, inputs: hidden.append(inputs[0]))
+    lo, cond = torch.randn(2, 5, 30), torch.randn(2, 5, net.lstm.input_size - 30)
     with torch.autocast("cpu", dtype=training.PRECISIONS["bf16"]):
-        out = net(torch.randn(2, 5, 30), torch.randn(2, 5, net.lstm.input_size - 30))
-    assert out.dtype == torch.bfloat16 and seen == []
+        out = net(lo, cond)
+    assert seen == [] and out.dtype == torch.float32
+    assert torch.equal(hidden[0], hidden[0].to(torch.bfloat16).float())      # the LSTM's output was bfloat16
 
 
 def test_pays_off_where_measured():

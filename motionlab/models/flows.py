@@ -31,7 +31,8 @@ The coupling network is pluggable: :class:`AffineCoupling` takes a *factory*
 ``make_network(in_channels, cond_channels, out_channels) -> nn.Module``, and calls the
 network as ``network(lo, cond)`` with ``lo`` ``(batch, time, in_channels)`` and ``cond``
 ``(batch, time, cond_channels)`` or ``None``; it must return ``(batch, time,
-out_channels)`` and have a zero-initialised output layer. :class:`ConvCouplingNet`
+out_channels)`` and have a zero-initialised output layer (run through :func:`output_layer`, so
+that it computes in float32 under mixed precision). :class:`ConvCouplingNet`
 (Glow for fixed-length sequences, eqs. 8 and 10) and :class:`MLPCouplingNet` (one frame
 at a time) are provided; MoGlow (§4.2) plugs in a recurrent one. The network is called
 exactly once per ``forward`` and once per ``inverse``, so a recurrent network may carry
@@ -210,8 +211,18 @@ class InvertibleLinear(InvertibleModule):
 def full_precision(x: torch.Tensor):
     """A block where autocast (mixed-precision training, ``TrainConfig.precision``) is off:
     the flow's own arithmetic (the 1x1 mixing, the affine transform, every log-determinant
-    and the prior) stays float32; only the coupling networks ``A_n`` run in low precision."""
+    and the prior) stays float32; only the coupling networks' hidden layers run in low
+    precision (see :func:`output_layer`)."""
     return torch.autocast(x.device.type, enabled=False)
+
+
+def output_layer(layer: nn.Module, hidden: torch.Tensor, like: torch.Tensor) -> torch.Tensor:
+    """``layer(hidden)`` in ``like``'s dtype, with autocast off: a coupling network's output
+    layer gives the shift and the raw scale, whose logarithms sum to the coupling's
+    log-determinant, so under mixed precision it computes in float32 (a small product:
+    ``2 x n_hi`` outputs) on the hidden layers' low-precision activations."""
+    with full_precision(like):
+        return layer(hidden.to(like.dtype))
 
 
 # ----------------------------------------------------------------------------------------
@@ -253,7 +264,10 @@ class ConvCouplingNet(nn.Module):
     def forward(self, lo: torch.Tensor, cond: torch.Tensor | None = None) -> torch.Tensor:
         """``lo`` ``(batch, time, in)``, ``cond`` ``(batch, time, cond)`` -> ``(batch, time, out)``."""
         inputs = lo if cond is None else torch.cat([lo, cond], dim=-1)
-        return self.layers(inputs.transpose(1, 2)).transpose(1, 2)
+        hidden = inputs.transpose(1, 2)
+        for layer in self.layers[:-1]:
+            hidden = layer(hidden)
+        return output_layer(self.layers[-1], hidden, lo).transpose(1, 2)
 
 
 class MLPCouplingNet(nn.Module):
@@ -272,7 +286,10 @@ class MLPCouplingNet(nn.Module):
 
     def forward(self, lo: torch.Tensor, cond: torch.Tensor | None = None) -> torch.Tensor:
         """``lo`` ``(batch, time, in)``, ``cond`` ``(batch, time, cond)`` -> ``(batch, time, out)``."""
-        return self.layers(lo if cond is None else torch.cat([lo, cond], dim=-1))
+        hidden = lo if cond is None else torch.cat([lo, cond], dim=-1)
+        for layer in self.layers[:-1]:
+            hidden = layer(hidden)
+        return output_layer(self.layers[-1], hidden, lo)
 
 
 SCALE_SHIFT = 2.0
@@ -315,7 +332,8 @@ class AffineCoupling(InvertibleModule):
         self.network = make_network(self.n_lo, cond_channels, 2 * self.n_hi)
 
     def _shift_and_log_scale(self, lo: torch.Tensor, cond: torch.Tensor | None):
-        # under mixed precision A_n may compute in bfloat16; the transform and its log-det do not
+        # under mixed precision A_n's hidden layers may compute in bfloat16; its output layer
+        # (output_layer), the transform and its log-det do not
         h = self.network(lo, cond).to(lo.dtype)
         if h.shape != lo.shape[:2] + (2 * self.n_hi,):
             raise ValueError(f"make_network: the network returned {tuple(h.shape)}, expected "

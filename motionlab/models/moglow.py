@@ -62,7 +62,8 @@ from torch import nn
 
 from . import recurrent
 from .base import Generated, eval_mode, generator_for, native_bfloat16, onednn_disabled
-from .flows import _LOG_SIGMOID_SHIFT, SCALE_SHIFT, FlowSequence, FlowStep, GaussianPrior, MLPCouplingNet
+from .flows import (_LOG_SIGMOID_SHIFT, SCALE_SHIFT, FlowSequence, FlowStep, GaussianPrior, MLPCouplingNet,
+                    output_layer)
 from .glow import MotionFlow
 
 
@@ -157,12 +158,13 @@ class LSTMCouplingNet(nn.Module):
 
     def forward(self, lo: torch.Tensor, cond: torch.Tensor | None = None) -> torch.Tensor:
         if self.written_out and not self.carrying:
-            return self.output(recurrent.from_zero_state(self.lstm, lo, cond))
-        inputs = lo if cond is None else torch.cat([lo, cond], dim=-1)
-        hidden, state = self.lstm(inputs, self.state if self.carrying else None)
-        if self.carrying:
-            self.state = state
-        return self.output(hidden)
+            hidden = recurrent.from_zero_state(self.lstm, lo, cond)
+        else:
+            inputs = lo if cond is None else torch.cat([lo, cond], dim=-1)
+            hidden, state = self.lstm(inputs, self.state if self.carrying else None)
+            if self.carrying:
+                self.state = state
+        return output_layer(self.output, hidden, lo)            # float32 under mixed precision
 
 
 class MoGlow(MotionFlow):
@@ -399,10 +401,10 @@ class MoGlowStream:
     inference mode, one frame per :meth:`step`. Several streams (characters) run at once as
     a batch.
 
-    Generating one frame reads every weight once, so one stream is limited by memory
-    bandwidth, and at the paper's size by the few hundred small operations beside its
-    products. So at creation the stream precomputes, once, what does not change from frame
-    to frame, and lays the rest out so that a frame allocates nothing:
+    Generating one frame reads every weight once, so one stream is limited by how fast its
+    products read the weights, and then by the hundreds of small operations beside them.
+    So at creation the stream precomputes, once, what does not change from frame to frame,
+    and lays the rest out so that a frame allocates nothing:
 
     * each step's ``W^-1`` joined with its ActNorm inverse into one affine map (matrix
       products, not triangular solves);
@@ -412,7 +414,8 @@ class MoGlowStream:
     * each layer's remaining weights joined, ``[W_ih W_hh]`` on ``[input, h_{t-1}]``, and
       every coupling's inputs and hidden states kept side by side in one buffer
       ``[b_lo, h_1, h_2, ...]``, so each layer is one product on a slice of it, and writes
-      its new ``h`` into it in place;
+      its new ``h`` into it in place (``nn.LSTM``, called one frame at a time, would repack
+      its weights on every call);
     * the output layer's rows rearranged so that the coupling's inverse scale
       ``1 / s' = σ(2) (1 + exp(-h_s' - 2))`` (:data:`~motionlab.models.flows.SCALE_SHIFT`)
       is one exponential, with ``σ(2)`` moved into the next affine map;
