@@ -287,8 +287,23 @@ def test_short_training_run_improves_the_likelihood():
     assert torch.isfinite(out).all()
 
 
+def lstm_driven(layers=2):
+    """A model whose couplings depend strongly on their LSTMs (output weights ~ N(0, 0.3)):
+    resetting the LSTM states every frame moves its 8-frame streams by ~0.3, while their
+    bfloat16 rounding moves them by ~7e-4."""
+    model = trained_like(replace(SMALL, lstm_layers=layers))
+    with torch.no_grad():
+        for module in model.modules():
+            if isinstance(module, LSTMCouplingNet):
+                module.output.weight.normal_(0, 0.3)
+    return model
+
+
+BFLOAT16_STREAM_TOLERANCE = 5e-3         # normalised units, over 8 frames of lstm_driven()
+
+
 def test_stream_with_two_lstm_layers_and_bfloat16_weights():
-    model = trained_like(replace(SMALL, lstm_layers=2))
+    model = lstm_driven()
     x = features(2, 12)
     noise = torch.randn(2, 8, 61, generator=torch.Generator().manual_seed(4))
     reference = model.sample(x[:, 4:, -3:], x[:, :4], temperature=0.5, noise=noise)
@@ -296,7 +311,7 @@ def test_stream_with_two_lstm_layers_and_bfloat16_weights():
     assert torch.allclose(exact, reference, atol=1e-4)
     half = model.stream(x[:, :4], temperature=0.5, weights=torch.bfloat16).run(x[:, 4:, -3:], noise)
     error = (half - reference).abs().max().item()
-    assert 0 < error < 0.1, error
+    assert 0 < error < BFLOAT16_STREAM_TOLERANCE, error
     with pytest.raises(ValueError, match="weights"):
         model.stream(x[:, :4], weights=torch.float16)
 
@@ -315,22 +330,24 @@ def test_stream_with_three_lstm_layers_and_trained_biases_equals_the_batch_sampl
     noise = torch.randn(streams, 8, 61, generator=torch.Generator().manual_seed(7))
     reference = model.sample(x[:, 4:, -3:], x[:, :4], temperature=0.5, noise=noise)
     stream = model.stream(x[:, :4], temperature=0.5)
-    assert stream._product == ("transposed" if streams == 1 else "product")
+    assert stream._kernel == ("transposed" if streams == 1 else "product")
     assert len(stream._cond_chunks) == (1 if streams == 1 else SMALL.steps)
     assert torch.allclose(stream.run(x[:, 4:, -3:], noise), reference, atol=1e-4)
 
 
-@pytest.mark.parametrize("product", ["matrix-vector", "own product", "product"])
-def test_one_bfloat16_stream_with_any_kernel_follows_the_float32_stream(product):
+@pytest.mark.parametrize("kernel", ["matrix-vector", "own product", "product"])
+def test_one_bfloat16_stream_with_any_kernel_follows_the_float32_stream(kernel):
     # one stream picks its kernel by the CPU (native bfloat16 or not); every one is checked here
-    model = trained_like(replace(SMALL, lstm_layers=2))
+    model = lstm_driven()
     x = features(1, 12)
     noise = torch.randn(1, 8, 61, generator=torch.Generator().manual_seed(5))
     exact = model.stream(x[:, :4], temperature=0.5).run(x[:, 4:, -3:], noise)
     stream = model.stream(x[:, :4], temperature=0.5, weights=torch.bfloat16)
-    stream._product = product
+    stream._kernel = kernel
+    with torch.inference_mode():
+        stream._precompute(torch.device("cpu"))                # the weights laid out for that kernel
     error = (stream.run(x[:, 4:, -3:], noise) - exact).abs().max().item()
-    assert 0 < error < 0.1, error
+    assert 0 < error < BFLOAT16_STREAM_TOLERANCE, error
     assert torch.backends.mkldnn.enabled                       # the own-product path restores oneDNN
 
 
@@ -340,7 +357,7 @@ def test_one_float32_stream_with_transposed_weights_equals_the_batch_sampler():
     noise = torch.randn(1, 8, 61, generator=torch.Generator().manual_seed(6))
     reference = model.sample(x[:, 4:, -3:], x[:, :4], temperature=0.5, noise=noise)
     stream = model.stream(x[:, :4], temperature=0.5)
-    assert stream._product == "transposed"
+    assert stream._kernel == "transposed"
     assert torch.allclose(stream.run(x[:, 4:, -3:], noise), reference, atol=1e-4)
 
 

@@ -69,8 +69,8 @@ def test_the_invertible_1x1_and_the_couplings_compute_in_float32_under_autocast(
 @bf16_cpu
 @pytest.mark.parametrize("kind", ["conv", "mlp", "lstm"])
 def test_coupling_networks_compute_their_output_layer_in_float32_under_autocast(kind):
-    # the output layer gives the shift and the raw scale, whose logarithms are the coupling's
-    # log-determinant: only the hidden layers compute in bfloat16
+    # the output layer gives the shift and the raw scale, and the coupling's log-determinant
+    # is a function of the raw scale (eq. 9): only the hidden layers compute in bfloat16
     from motionlab.models import flows
     from motionlab.models.moglow import LSTMCouplingNet
     make = {"conv": flows.ConvCouplingNet, "mlp": flows.MLPCouplingNet, "lstm": LSTMCouplingNet}[kind]

@@ -218,9 +218,10 @@ def full_precision(x: torch.Tensor):
 
 def output_layer(layer: nn.Module, hidden: torch.Tensor, like: torch.Tensor) -> torch.Tensor:
     """``layer(hidden)`` in ``like``'s dtype, with autocast off: a coupling network's output
-    layer gives the shift and the raw scale, whose logarithms sum to the coupling's
-    log-determinant, so under mixed precision it computes in float32 (a small product:
-    ``2 x n_hi`` outputs) on the hidden layers' low-precision activations."""
+    layer gives the shift ``t'`` and the raw scale ``h_s'``, and the coupling's
+    log-determinant is ``Σ ln s' = Σ [ln σ(h_s' + 2) - ln σ(2)]`` (eq. 9), so under mixed
+    precision this layer computes in float32 (a small product: ``2 x n_hi`` outputs) on the
+    hidden layers' low-precision activations."""
     with full_precision(like):
         return layer(hidden.to(like.dtype))
 
@@ -265,9 +266,10 @@ class ConvCouplingNet(nn.Module):
         """``lo`` ``(batch, time, in)``, ``cond`` ``(batch, time, cond)`` -> ``(batch, time, out)``."""
         inputs = lo if cond is None else torch.cat([lo, cond], dim=-1)
         hidden = inputs.transpose(1, 2)
-        for layer in self.layers[:-1]:
+        *hidden_layers, last = self.layers
+        for layer in hidden_layers:
             hidden = layer(hidden)
-        return output_layer(self.layers[-1], hidden, lo).transpose(1, 2)
+        return output_layer(last, hidden, lo).transpose(1, 2)
 
 
 class MLPCouplingNet(nn.Module):
@@ -287,9 +289,10 @@ class MLPCouplingNet(nn.Module):
     def forward(self, lo: torch.Tensor, cond: torch.Tensor | None = None) -> torch.Tensor:
         """``lo`` ``(batch, time, in)``, ``cond`` ``(batch, time, cond)`` -> ``(batch, time, out)``."""
         hidden = lo if cond is None else torch.cat([lo, cond], dim=-1)
-        for layer in self.layers[:-1]:
+        *hidden_layers, last = self.layers
+        for layer in hidden_layers:
             hidden = layer(hidden)
-        return output_layer(self.layers[-1], hidden, lo)
+        return output_layer(last, hidden, lo)
 
 
 SCALE_SHIFT = 2.0

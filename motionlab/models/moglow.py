@@ -393,6 +393,34 @@ class MoGlow(MotionFlow):
                 f"parameters: {weights:,} ({4 * weights / 1e6:.1f} MB as float32)"]
 
 
+@dataclass(eq=False)
+class _StreamCoupling:
+    """One coupling as :class:`MoGlowStream` runs it: its weights, laid out for the stream's
+    product kernel, and the buffers each frame overwrites in place (``B`` streams, ``L``
+    LSTM layers of ``H`` units, ``D = n_lo + n_hi`` modelled values).
+
+    The LSTM's input and hidden states share one ``(B, n_lo + L·H)`` buffer
+    ``[b_lo, h_1, ..., h_L]`` in the weights' dtype: ``lo`` is this frame's ``b_lo``,
+    ``layer_inputs[l]`` the slice layer ``l`` multiplies (``[b_lo, h_1]`` for the first,
+    ``[h_{l-1}, h_l]`` after it), and ``hidden[l]`` where it writes its new ``h_l``.
+    """
+
+    lo: torch.Tensor                     # (B, n_lo), a view of the buffer
+    layer_inputs: list[torch.Tensor]     # per layer, a view of the buffer
+    hidden: list[torch.Tensor]           # per layer, (B, H), a view of the buffer
+    cells: list[torch.Tensor]            # per layer, c_l, (B, H) float32
+    operands: list[torch.Tensor]         # per layer, [W_ih W_hh] as (in, 4H); the first's without the conditioning
+    biases: list[torch.Tensor | None]    # per layer, (4H,) float32; the first's is in cond_gates
+    cond_gates: torch.Tensor             # (B, 4H) float32: the conditioning's part of the first layer's gates
+    output: torch.Tensor                 # (H, 2 n_hi): the output layer, giving [t' / σ(2), -h_s' - 2]
+    output_bias: torch.Tensor            # (2 n_hi,)
+    output_out: torch.Tensor             # (B, 2 n_hi) float32: the output layer's result, [shift, exponent]
+    shift: torch.Tensor                  # (B, n_hi), a view of output_out: t' / σ(2)
+    exponent: torch.Tensor               # (B, n_hi), a view of output_out: -h_s' - 2 (exp'd in place)
+    unmix: torch.Tensor                  # (D, D): W^-1 and ActNorm^-1 as one affine map, σ(2) in the hi rows
+    unmix_bias: torch.Tensor             # (D,)
+
+
 class MoGlowStream:
     """Real-time MoGlow: feed one control frame, get one pose back (§4.2, Fig. 3).
 
@@ -404,26 +432,29 @@ class MoGlowStream:
     Generating one frame reads every weight once, so one stream is limited by how fast its
     products read the weights, and then by the hundreds of small operations beside them.
     So at creation the stream precomputes, once, what does not change from frame to frame,
-    and lays the rest out so that a frame allocates nothing:
+    and keeps the couplings' work in buffers made once, which every frame overwrites in
+    place (:class:`_StreamCoupling`):
 
     * each step's ``W^-1`` joined with its ActNorm inverse into one affine map (matrix
       products, not triangular solves);
     * the first LSTM layer's weights on the conditioning, of all ``K`` couplings, stacked
       into one matrix: the conditioning is the same for every coupling, so one product per
-      frame gives that part of every coupling's gates;
+      frame gives that part of every coupling's gates (one product per coupling for several
+      streams on a CPU, measured faster there);
     * each layer's remaining weights joined, ``[W_ih W_hh]`` on ``[input, h_{t-1}]``, and
-      every coupling's inputs and hidden states kept side by side in one buffer
+      every coupling's input and hidden states kept side by side in one buffer
       ``[b_lo, h_1, h_2, ...]``, so each layer is one product on a slice of it, and writes
       its new ``h`` into it in place (``nn.LSTM``, called one frame at a time, would repack
       its weights on every call);
     * the output layer's rows rearranged so that the coupling's inverse scale
       ``1 / s' = σ(2) (1 + exp(-h_s' - 2))`` (:data:`~motionlab.models.flows.SCALE_SHIFT`)
       is one exponential, with ``σ(2)`` moved into the next affine map;
-    * the weights laid out for the fastest product kernel of this CPU (below).
+    * the weights laid out for the fastest product kernel of this CPU (``_kernel``).
 
     ``weights=torch.bfloat16`` halves the bytes read per frame: the LSTM products run in
-    bfloat16, everything else in float32; frames then differ from the float32 ones by about
-    1e-2 in normalised units.
+    bfloat16 (the conditioning's part and the rest of each first layer's gates are each
+    rounded to bfloat16 before they are added in float32), everything else in float32;
+    frames then differ from the float32 ones by about 1e-3 to 1e-2 in normalised units.
 
     >>> stream = model.stream(history)            # (batch, τ, 66) normalised features
     >>> frame = stream.step(control)              # (batch, 3) -> (batch, 66)
@@ -467,17 +498,17 @@ class MoGlowStream:
         # How one frame's LSTM products run on a CPU (measured over paper-size layers, see
         # benchmarks/moglow_speed.py). One stream only reads weights, and the kernels differ:
         # * bfloat16, native arithmetic (AVX512-BF16, AMX): PyTorch's own matrix product, not
-        #   oneDNN's, reads them at about the memory bandwidth (~25-30 against ~15 GB/s);
+        #   oneDNN's, reads them at about the memory bandwidth (~22-32 against ~14-17 GB/s);
         # * bfloat16, emulated: the matrix-vector kernel reads them faster than a product;
         # * float32: oneDNN's product of the row with the weights stored transposed,
-        #   ``(in, 4H)``, reads them faster (~21 GB/s) than against ``(4H, in)`` (~14).
+        #   ``(in, 4H)``, reads them faster (~17-21 GB/s) than against ``(4H, in)`` (~14).
         # Several streams are arithmetic: oneDNN's product against ``(4H, in)``.
         one_cpu_stream = self.batch == 1 and device.type == "cpu"
-        self._product = "product"
+        self._kernel = "product"
         if one_cpu_stream and weights == torch.bfloat16:
-            self._product = "own product" if native_bfloat16() else "matrix-vector"
+            self._kernel = "own product" if native_bfloat16() else "matrix-vector"
         elif one_cpu_stream:
-            self._product = "transposed"
+            self._kernel = "transposed"
         with torch.inference_mode():
             self._precompute(device)
 
@@ -486,18 +517,18 @@ class MoGlowStream:
         products: stored transposed for the ``"transposed"`` kernel, else a view of the
         ``(out, in)`` matrix."""
         weight = weight.to(self.weights)
-        return weight.T.contiguous() if self._product == "transposed" else weight.contiguous().T
+        return weight.T.contiguous() if self._kernel == "transposed" else weight.contiguous().T
 
     def _multiply(self, inputs: torch.Tensor, operand: torch.Tensor, out: torch.Tensor) -> None:
         """``out = inputs @ operand`` with this stream's kernel, written into ``out``."""
-        if self._product == "matrix-vector":
+        if self._kernel == "matrix-vector":                     # one stream: its only row
             torch.mv(operand.T, inputs[0], out=out[0])
         else:
             torch.mm(inputs, operand, out=out)
 
     def _precompute(self, device: torch.device) -> None:
-        """Lay out the weights and the buffers of every coupling (see the class docstring);
-        the LSTM states start at zero (footnote 2)."""
+        """Lay out every coupling's weights and buffers (see the class docstring); the LSTM
+        states start at zero (footnote 2)."""
         model, batch = self.model, self.batch
         hidden, layers, n_steps = model.config.hidden, model.config.lstm_layers, model.config.steps
         gates = 4 * hidden
@@ -507,15 +538,25 @@ class MoGlowStream:
         order = torch.cat([torch.arange(0, 2 * hidden), torch.arange(3 * hidden, 4 * hidden),
                            torch.arange(2 * hidden, 3 * hidden)]).to(device)
         sigma_2 = math.exp(_LOG_SIGMOID_SHIFT)                            # σ(2)
-        # scratch shared by every layer: the product, the gates (float32), tanh(c)
+        # scratch shared by every layer: the product, the gates (float32) and views of them,
+        # tanh(c), and the last layer's h in float32 for the output layer
         self._product_out = new(batch, gates, dtype=self.weights)
         self._gates = new(batch, gates)
-        self._tanh_cell = new(batch, hidden)
-        self._last_hidden = new(batch, hidden)
-        # the poses between steps: z in, the coupling's output, then the next z (float32)
+        h = hidden
+        self._sigmoid_gates, self._cell_gate = self._gates[:, :3 * h], self._gates[:, 3 * h:]
+        self._input_gate, self._forget_gate, self._output_gate = (self._gates[:, :h], self._gates[:, h:2 * h],
+                                                                  self._gates[:, 2 * h:3 * h])
+        self._tanh_cell, self._last_hidden = new(batch, hidden), new(batch, hidden)
+        # the poses between steps (float32): z in, the coupling's output, then the next z;
+        # every step splits them alike (n_lo, n_hi)
         self._z, self._coupled = new(batch, model.n_modelled), new(batch, model.n_modelled)
-        self._steps, cond_weights, cond_biases = [], [], []
-        for step in model.flow.blocks:
+        n_lo = model.flow.blocks[0].coupling.n_lo
+        self._halves = (self._z[:, :n_lo], self._z[:, n_lo:], self._coupled[:, :n_lo], self._coupled[:, n_lo:])
+        # the conditioning's part of every coupling's first-layer gates, one frame's worth
+        self._cond_product = new(batch, n_steps * gates, dtype=self.weights)
+        self._cond_gates = new(batch, n_steps * gates)
+        self._couplings, cond_weights, cond_biases = [], [], []
+        for k, step in enumerate(model.flow.blocks):
             actnorm, linear, coupling = step.actnorm, step.linear, step.coupling
             lstm, output = coupling.network.lstm, coupling.network.output
             n_lo, n_hi = coupling.n_lo, coupling.n_hi
@@ -523,67 +564,57 @@ class MoGlowStream:
             cond_weights.append(weight_ih[:, n_lo:])
             cond_biases.append((lstm.bias_ih_l0 + lstm.bias_hh_l0)[order])
             operands = [self._operand(torch.cat([weight_ih[:, :n_lo], lstm.weight_hh_l0[order]], dim=1))]
-            biases = [None]                                               # layer 0's is in the conditioning's part
-            for k in range(1, layers):
-                operands.append(self._operand(torch.cat([getattr(lstm, f"weight_ih_l{k}")[order],
-                                                         getattr(lstm, f"weight_hh_l{k}")[order]], dim=1)))
-                biases.append((getattr(lstm, f"bias_ih_l{k}") + getattr(lstm, f"bias_hh_l{k}"))[order])
-            # [b_lo, h_1, ..., h_L] of this coupling, in the products' dtype; h = 0 at first (footnote 2)
-            buffer = new(batch, n_lo + layers * hidden, dtype=self.weights)
-            inputs = [buffer[:, :n_lo + hidden]] + [buffer[:, n_lo + (k - 1) * hidden:n_lo + (k + 1) * hidden]
-                                                    for k in range(1, layers)]
-            # output rows: the shift divided by σ(2), and -h_s' - 2 for the scale (see the class)
+            biases = [None]
+            for layer in range(1, layers):
+                operands.append(self._operand(torch.cat([getattr(lstm, f"weight_ih_l{layer}")[order],
+                                                         getattr(lstm, f"weight_hh_l{layer}")[order]], dim=1)))
+                biases.append((getattr(lstm, f"bias_ih_l{layer}") + getattr(lstm, f"bias_hh_l{layer}"))[order])
+            buffer = new(batch, n_lo + layers * hidden, dtype=self.weights)      # [b_lo, h_1, ..., h_L]
+            state = [buffer[:, n_lo + layer * hidden:n_lo + (layer + 1) * hidden] for layer in range(layers)]
+            inputs = [buffer[:, :n_lo + hidden]] + [buffer[:, n_lo + (layer - 1) * hidden:n_lo + (layer + 1) * hidden]
+                                                    for layer in range(1, layers)]
+            # the output layer's rows: the shift divided by σ(2), and -h_s' - 2 for the scale
             rows = torch.cat([output.weight[:n_hi] / sigma_2, -output.weight[n_hi:]])
             bias = torch.cat([output.bias[:n_hi] / sigma_2, -output.bias[n_hi:] - SCALE_SHIFT])
             # W^-1 then ActNorm^-1 is one affine map: (x W^-T - b) s = x (W^-T s) - b s; the
             # rows that take the coupled half also take the σ(2) of its inverse scale
             unmix = torch.linalg.inv(linear.weight().double()).T.float() * torch.exp(-actnorm.log_scale)
             unmix[n_lo:] *= sigma_2
-            self._steps.append({
-                "lo": buffer[:, :n_lo], "inputs": inputs, "operands": operands, "biases": biases,
-                "hidden": [buffer[:, n_lo + k * hidden:n_lo + (k + 1) * hidden] for k in range(layers)],
-                "cells": [new(batch, hidden) for _ in range(layers)],
-                "output_bias": bias, "output": rows.T.contiguous(), "out": new(batch, 2 * n_hi),
-                "unmix_bias": -actnorm.bias * torch.exp(-actnorm.log_scale), "unmix": unmix.contiguous(),
-                "n_lo": n_lo, "n_hi": n_hi})
+            output_out = new(batch, 2 * n_hi)
+            self._couplings.append(_StreamCoupling(
+                layer_inputs=inputs, hidden=state, lo=buffer[:, :n_lo],
+                cells=[new(batch, hidden) for _ in range(layers)], operands=operands, biases=biases,
+                cond_gates=self._cond_gates[:, k * gates:(k + 1) * gates],
+                output=rows.T.contiguous(), output_bias=bias, shift=output_out[:, :n_hi],
+                exponent=output_out[:, n_hi:], output_out=output_out, unmix=unmix.contiguous(),
+                unmix_bias=-actnorm.bias * torch.exp(-actnorm.log_scale)))
         self._cond_operand = self._operand(torch.cat(cond_weights))                 # (cond, K·4H)
         self._cond_bias = torch.cat(cond_biases)
-        self._cond_product = new(batch, n_steps * gates, dtype=self.weights)
-        self._cond_gates = new(batch, n_steps * gates)
-        # several streams: one product per coupling, measured faster in float32 than one stacked
-        # product of 64 rows (90 against 65 GFLOP/s); one stream: one product
-        chunk = gates if self._product == "product" else n_steps * gates
+        # several streams on a CPU: one product per coupling (64 float32 rows: 90 GFLOP/s,
+        # against 65 for one product over all couplings' columns); else one product
+        chunk = gates if batch > 1 and device.type == "cpu" else n_steps * gates
         self._cond_chunks = [(self._cond_operand[:, start:start + chunk], self._cond_product[:, start:start + chunk])
                              for start in range(0, n_steps * gates, chunk)]
-        for k, step in enumerate(self._steps):
-            step["cond_gates"] = self._cond_gates[:, k * gates:(k + 1) * gates]
-            step["shift"], step["exponent"] = step["out"][:, :step["n_hi"]], step["out"][:, step["n_hi"]:]
-            n_lo = step["n_lo"]
-            step["z_lo"], step["z_hi"] = self._z[:, :n_lo], self._z[:, n_lo:]
-            step["coupled_lo"], step["coupled_hi"] = self._coupled[:, :n_lo], self._coupled[:, n_lo:]
-        h = hidden
-        self._gate_views = (self._gates[:, :3 * h], self._gates[:, 3 * h:],              # sigmoid, tanh
-                            self._gates[:, :h], self._gates[:, h:2 * h], self._gates[:, 2 * h:3 * h])  # i, f, o
 
-    def _coupling_network(self, step: dict) -> torch.Tensor:
+    def _coupling_network(self, coupling: _StreamCoupling) -> None:
         """One coupling's network on this frame's ``b_lo`` (already in its buffer): the LSTM
         layers (eq. 17, carrying their state; gates reordered i, f, o, g), then the output
-        layer. Returns ``(batch, 2 * n_hi)``: ``[t' / σ(2), -h_s' - 2]``."""
-        sigmoid_gates, cell_gate, input_gate, forget_gate, output_gate = self._gate_views
-        for layer, (inputs, operand, bias, cell) in enumerate(zip(step["inputs"], step["operands"],
-                                                                   step["biases"], step["cells"])):
+        layer, into ``coupling.output_out``: ``[t' / σ(2), -h_s' - 2]``."""
+        last = len(coupling.cells) - 1
+        for layer, (inputs, operand, bias, cell) in enumerate(zip(coupling.layer_inputs, coupling.operands,
+                                                                   coupling.biases, coupling.cells)):
             self._multiply(inputs, operand, self._product_out)
-            torch.add(self._product_out, step["cond_gates"] if bias is None else bias, out=self._gates)
-            sigmoid_gates.sigmoid_()
-            cell_gate.tanh_()
-            cell.mul_(forget_gate).addcmul_(input_gate, cell_gate)          # c_t = f c_{t-1} + i g
+            torch.add(self._product_out, coupling.cond_gates if bias is None else bias, out=self._gates)
+            self._sigmoid_gates.sigmoid_()
+            self._cell_gate.tanh_()
+            cell.mul_(self._forget_gate).addcmul_(self._input_gate, self._cell_gate)    # c_t = f c_{t-1} + i g
             torch.tanh(cell, out=self._tanh_cell)
-            if layer + 1 < len(step["cells"]):                              # h_t = o tanh(c_t), into the buffer
-                torch.mul(output_gate, self._tanh_cell, out=step["hidden"][layer])
+            if layer < last:                                                       # h_t = o tanh(c_t)
+                torch.mul(self._output_gate, self._tanh_cell, out=coupling.hidden[layer])
             else:
-                torch.mul(output_gate, self._tanh_cell, out=self._last_hidden)
-                step["hidden"][layer].copy_(self._last_hidden)
-        return torch.addmm(step["output_bias"], self._last_hidden, step["output"], out=step["out"])
+                torch.mul(self._output_gate, self._tanh_cell, out=self._last_hidden)
+                coupling.hidden[layer].copy_(self._last_hidden)
+        torch.addmm(coupling.output_bias, self._last_hidden, coupling.output, out=coupling.output_out)
 
     def _normalised_control(self, control) -> torch.Tensor:
         c = self.model.config.n_control
@@ -610,7 +641,7 @@ class MoGlowStream:
             The new frame's features ``(batch, n_features)``, normalised or in data units.
         """
         model = self.model
-        own_products = onednn_disabled() if self._product == "own product" else nullcontext()
+        own_products = onednn_disabled() if self._kernel == "own product" else nullcontext()
         with torch.inference_mode(), own_products:
             control = self._normalised_control(control)
             shape = (self.batch, model.n_modelled)
@@ -622,20 +653,22 @@ class MoGlowStream:
             controls = torch.cat([self.controls, control[:, None]], dim=1)       # c_{t-τ .. t}
             cond = MoGlow.frame_conditioning(self._history_scale * self.poses, controls)[:, 0]
             # the conditioning's part of every coupling's first-layer gates, in one product
+            # (one per coupling for several streams on a CPU)
             cond = cond.to(self.weights)
             for operand, out in self._cond_chunks:
                 self._multiply(cond, operand, out)
             torch.add(self._cond_product, self._cond_bias, out=self._cond_gates)
             torch.mul(noise, self.temperature, out=self._z)
-            for step in reversed(self._steps):                                   # f_K^-1 ... f_1^-1 undone
-                step["lo"].copy_(step["z_lo"])
-                self._coupling_network(step)
+            z_lo, z_hi, coupled_lo, coupled_hi = self._halves
+            for coupling in reversed(self._couplings):                           # f_K^-1 ... f_1^-1 undone
+                coupling.lo.copy_(z_lo)
+                self._coupling_network(coupling)
                 # eq. 6 inverted, b_hi = z_hi / s' - t', divided by σ(2) (the unmix multiplies it back):
                 # z_hi (1 + e) - t' / σ(2), with e = exp(-h_s' - 2) = 1 / (σ(2) s') - 1
-                torch.addcmul(step["z_hi"], step["z_hi"], step["exponent"].exp_(), out=step["coupled_hi"])
-                step["coupled_hi"].sub_(step["shift"])
-                step["coupled_lo"].copy_(step["z_lo"])
-                torch.addmm(step["unmix_bias"], self._coupled, step["unmix"], out=self._z)   # W^-1, ActNorm^-1
+                torch.addcmul(z_hi, z_hi, coupling.exponent.exp_(), out=coupled_hi)
+                coupled_hi.sub_(coupling.shift)
+                coupled_lo.copy_(z_lo)
+                torch.addmm(coupling.unmix_bias, self._coupled, coupling.unmix, out=self._z)   # W^-1, ActNorm^-1
             x = self._z.clone()
             self.poses = torch.cat([self.poses[:, 1:], x[:, None]], dim=1)
             self.controls = controls[:, 1:]
