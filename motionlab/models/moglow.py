@@ -57,7 +57,6 @@ from functools import partial
 
 import numpy as np
 import torch
-import torch.nn.functional as F
 from torch import nn
 
 from . import recurrent
@@ -542,10 +541,8 @@ class MoGlowStream:
         # tanh(c), and the last layer's h in float32 for the output layer
         self._product_out = new(batch, gates, dtype=self.weights)
         self._gates = new(batch, gates)
-        h = hidden
-        self._sigmoid_gates, self._cell_gate = self._gates[:, :3 * h], self._gates[:, 3 * h:]
-        self._input_gate, self._forget_gate, self._output_gate = (self._gates[:, :h], self._gates[:, h:2 * h],
-                                                                  self._gates[:, 2 * h:3 * h])
+        self._sigmoid_gates, self._cell_gate = self._gates[:, :3 * hidden], self._gates[:, 3 * hidden:]
+        self._input_gate, self._forget_gate, self._output_gate = self._gates[:, :3 * hidden].split(hidden, dim=1)
         self._tanh_cell, self._last_hidden = new(batch, hidden), new(batch, hidden)
         # the poses between steps (float32): z in, the coupling's output, then the next z;
         # every step splits them alike (n_lo, n_hi)
@@ -578,7 +575,8 @@ class MoGlowStream:
             bias = torch.cat([output.bias[:n_hi] / sigma_2, -output.bias[n_hi:] - SCALE_SHIFT])
             # W^-1 then ActNorm^-1 is one affine map: (x W^-T - b) s = x (W^-T s) - b s; the
             # rows that take the coupled half also take the σ(2) of its inverse scale
-            unmix = torch.linalg.inv(linear.weight().double()).T.float() * torch.exp(-actnorm.log_scale)
+            scale = torch.exp(-actnorm.log_scale)
+            unmix = torch.linalg.inv(linear.weight().double()).T.float() * scale
             unmix[n_lo:] *= sigma_2
             output_out = new(batch, 2 * n_hi)
             self._couplings.append(_StreamCoupling(
@@ -587,7 +585,7 @@ class MoGlowStream:
                 cond_gates=self._cond_gates[:, k * gates:(k + 1) * gates],
                 output=rows.T.contiguous(), output_bias=bias, shift=output_out[:, :n_hi],
                 exponent=output_out[:, n_hi:], output_out=output_out, unmix=unmix.contiguous(),
-                unmix_bias=-actnorm.bias * torch.exp(-actnorm.log_scale)))
+                unmix_bias=-actnorm.bias * scale))
         self._cond_operand = self._operand(torch.cat(cond_weights))                 # (cond, K·4H)
         self._cond_bias = torch.cat(cond_biases)
         # several streams on a CPU: one product per coupling (64 float32 rows: 90 GFLOP/s,
