@@ -63,7 +63,8 @@ import torch.nn.functional as F
 
 from motionlab import data, training
 from motionlab.models import recurrent
-from motionlab.models.base import native_bfloat16, onednn_disabled
+from motionlab import cpu
+from motionlab.cpu import native_bfloat16, onednn_disabled
 from motionlab.models.moglow import LSTMCouplingNet, MoGlow, MoGlowConfig
 
 TRAIN_BATCH, TRAIN_FRAMES = 100, 70          # the paper's batches (§5.2): 100 windows, 70 predicted frames
@@ -194,7 +195,8 @@ def lstm_seconds(config: MoGlowConfig, precision: str = "fp32", repeats: int = 2
     the ``config.steps`` coupling LSTMs over the step's 100 windows of 70 frames, and
     nothing else of the model. ``written_out``: as MoGlow trains them on the CPU (through
     :func:`motionlab.models.recurrent.from_zero_state`); ``False``: ``nn.LSTM``'s own
-    kernels."""
+    kernels (:func:`motionlab.models.recurrent.run`: PyTorch's own LSTM cells where oneDNN has
+    no LSTM in ``precision``, see :func:`motionlab.cpu.onednn_lstm`)."""
     torch.manual_seed(0)
     model = MoGlow(config)
     lstms = [m.lstm for m in model.modules() if isinstance(m, LSTMCouplingNet)]
@@ -203,7 +205,9 @@ def lstm_seconds(config: MoGlowConfig, precision: str = "fp32", repeats: int = 2
     low = training.PRECISIONS[precision]
 
     def run(lstm):
-        return recurrent.from_zero_state(lstm, half, cond) if written_out else lstm(torch.cat([half, cond], -1))[0]
+        if written_out:
+            return recurrent.from_zero_state(lstm, half, cond)
+        return recurrent.run(lstm, torch.cat([half, cond], -1))[0]     # PyTorch's own cells where oneDNN has no such LSTM
 
     def work():
         with torch.autocast("cpu", dtype=low) if low is not None else nullcontext():
@@ -375,8 +379,13 @@ def main() -> None:
     if args.rounds < 1:
         parser.error("--rounds: expected 1 or more")
     torch.set_num_threads(args.threads)
-    print(f"torch {torch.__version__}, {args.threads} threads, CPU capability "
-          f"{torch.backends.cpu.get_cpu_capability()}, native bfloat16 products: {native_bfloat16()}\n")
+    print(f"torch {torch.__version__}, {args.threads} threads; {cpu.summary()}")
+    if not native_bfloat16():
+        print("No native bfloat16 arithmetic here: every bfloat16 figure below is of emulated products, slower "
+              "than float32" + ("" if cpu.onednn_lstm(torch.bfloat16) else
+                                "; oneDNN has no bfloat16 LSTM, so the 'nn.LSTM' column of the bf16 rows times "
+                                "PyTorch's own LSTM cells"))
+    print()
     if args.compare:
         try:
             other = load_adapter(args.compare)

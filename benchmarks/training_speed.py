@@ -82,12 +82,17 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=5, help="timed steps per round")
     args = parser.parse_args()
     torch.set_num_threads(args.threads)
-    # written out rather than models.base.native_bfloat16(): older checkouts, timed through
-    # PYTHONPATH, do not have it (nor training.adam's choice, hence the fused Adam above)
-    native = torch.backends.mkldnn.is_available() and torch.ops.mkldnn._is_mkldnn_bf16_supported()
+    # older checkouts, timed through PYTHONPATH, have no motionlab.cpu (nor training.adam's
+    # choice, hence the fused Adam above): then PyTorch's own reading of the CPU
+    try:
+        from motionlab import cpu
+        kernels = cpu.summary()
+    except ImportError:
+        native = torch.backends.mkldnn.is_available() and torch.ops.mkldnn._is_mkldnn_bf16_supported()
+        kernels = f"native bfloat16 products: {native}"
     print(f"torch {torch.__version__}, {args.threads} threads, batch {args.batch}, median of {args.rounds} "
           f"interleaved rounds of {args.steps} steps; motionlab from {Path(motionlab.__file__).parent}; "
-          f"native bfloat16 products: {native}\n")
+          f"{kernels}\n")
     print("| model | steps/s, float32 | steps/s, bf16 mixed | ratio |")
     print("|---|---|---|---|")
     precisions = {"fp32": None, "bf16": torch.bfloat16}

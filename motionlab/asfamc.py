@@ -518,6 +518,10 @@ def read_asf(path: str | Path) -> ASF:
 _AMC_LINE = re.compile(r"^[ \t]*([^#\s]\S*)[ \t]*([^\n]*)", re.MULTILINE)
 """A non-blank, non-comment line: its first word and the rest of the line."""
 
+_EMPTY_FRAME = re.compile(r"^[ \t]*(\d+)[ \t]*\n(?:[ \t]*(?:#[^\n]*)?\n)*[ \t]*(\d+)[ \t]*$", re.MULTILINE)
+"""A frame number line followed by another (blank and comment lines between): a frame
+that gives no bone."""
+
 MAX_FRAME_NUMBER_DIGITS = 9
 """Frame numbers have at most this many digits (10**9 frames: 96 days at 120 fps)."""
 
@@ -655,7 +659,9 @@ def read_amc(path: str | Path, asf: ASF) -> AMC:
     Frames must be numbered contiguously. A bone missing from a frame gets zeros (its rest
     pose relative to its parent) in that frame, except in the last frame: a file that ends
     inside its last frame (it was cut short, see :func:`_last_frame_cut_short`) loses that
-    frame, with a warning naming the file. A file without frames, a bone given twice in a
+    frame, with a warning naming the file. A file without frames, a frame that gives no
+    bone at all (so a file of bare frame numbers cannot make arrays of millions of rest
+    poses), a bone given twice in a
     frame, a bone the ASF does not have, the wrong number of values for a bone's dofs or a
     value that is not a finite number (``nan``, ``inf``, ``1e400``) raises ``ValueError``
     starting ``"<file>:<line>:"``. Parsing is vectorised per bone, not per frame. Angles are
@@ -665,7 +671,16 @@ def read_amc(path: str | Path, asf: ASF) -> AMC:
     source = _Source(str(path), "AMC")
     first, angle, fully_specified = _amc_header(source)
     angle = angle or asf.angle
-    entries = _AMC_LINE.findall("\n".join(source.lines[first:]))    # (first word, the rest)
+    body = "\n".join(source.lines[first:])
+    # every frame but a cut-short last one gives at least one bone, so the frames' arrays
+    # are bounded by the values found, not by how many frame numbers the file lists; looked
+    # for before any per-line work (a file of bare frame numbers is refused at once)
+    empty = _EMPTY_FRAME.search(body)
+    if empty:
+        line = first + body.count("\n", 0, empty.start()) + 1
+        raise source.error(line, f"frame {empty.group(1)} gives no bone (the next line is frame "
+                                 f"{empty.group(2)}): every frame must list its bones")
+    entries = _AMC_LINE.findall(body)                                  # (first word, the rest)
     heads = [head for head, _ in entries]
     texts = [text for _, text in entries]
     frame_of, frame_rows = _frame_of_each_line(source, first, heads, texts)

@@ -69,6 +69,61 @@ def whole(value, name: str, minimum: int = 1) -> int:
     return int(value)
 
 
+def finite(value, name: str) -> float:
+    """``value`` as a float if it is a finite number (of either sign), else ``ValueError``."""
+    if not _is_number(value) or not math.isfinite(float(value)):
+        raise ValueError(f"{name}: expected a finite number, got {value!r}")
+    return float(value)
+
+
+def config(obj, *, positive_fields=(), non_negative_fields=(), probability_fields=(), fraction_fields=(),
+           zero_allowed=()) -> None:
+    """Check every field of a config dataclass by its annotation, in place; ``ValueError``
+    naming the field otherwise. Called first in each config's ``__post_init__``.
+
+    * ``int`` fields: whole numbers ``>= 1`` (``>= 0`` for the names in ``zero_allowed``);
+      bools, floats (``2.5``, ``64.0``) and NaN are refused; numpy integers become ``int``.
+    * ``float`` fields: finite numbers (ints become floats), and ``fps`` a frame rate
+      (:func:`rate`); the names in ``positive_fields`` must be ``> 0``, in
+      ``non_negative_fields`` ``>= 0``, in ``probability_fields`` in ``[0, 1)`` and in
+      ``fraction_fields`` in ``[0, 1]``.
+    * ``bool`` fields: ``True`` or ``False``; ``str`` fields: strings.
+    * ``X | None``: ``None``, or as ``X``. Other annotations (tuples) are the config's own
+      to check.
+    """
+    import dataclasses
+    for field in dataclasses.fields(obj):
+        name, value = field.name, getattr(obj, field.name)
+        kinds = {kind.strip() for kind in str(field.type).split("|")}
+        if value is None and "None" in kinds:
+            continue
+        if "bool" in kinds:
+            if not isinstance(value, (bool, np.bool_)):
+                raise ValueError(f"{name}: expected True or False, got {value!r}")
+            value = bool(value)
+        elif "int" in kinds:
+            value = whole(value, name, 0 if name in zero_allowed else 1)
+        elif "float" in kinds:
+            if name == "fps":
+                value = rate(value, name)
+            elif name in positive_fields:
+                value = positive(value, name)
+            else:
+                value = finite(value, name)
+                if name in non_negative_fields and value < 0:
+                    raise ValueError(f"{name}: expected a number >= 0, got {value!r}")
+                if name in probability_fields and not 0 <= value < 1:
+                    raise ValueError(f"{name}: expected a probability, 0 <= p < 1, got {value!r}")
+                if name in fraction_fields and not 0 <= value <= 1:
+                    raise ValueError(f"{name}: expected a number from 0 to 1, got {value!r}")
+        elif "str" in kinds:
+            if not isinstance(value, str):
+                raise ValueError(f"{name}: expected a string, got {value!r}")
+        else:
+            continue
+        object.__setattr__(obj, name, value)
+
+
 def _shape_text(shape) -> str:
     return "(" + ", ".join("..." if s is Ellipsis else str(s) for s in shape) + ")"
 

@@ -13,6 +13,7 @@ floor at y = 0) first; :mod:`motionlab.representation` turns those into features
 from __future__ import annotations
 
 import json
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Iterable, Sequence
@@ -117,6 +118,7 @@ def load(source: str | Path | Iterable[str | Path] = "synthetic", fps: float = 2
     files shows a progress bar.
     """
     fps = checks.rate(fps, "fps")
+    source = _checked_source(source)
     if isinstance(source, str) and source == "synthetic":
         from . import synthetic
         n_clips = checks.whole(n_clips, "n_clips")
@@ -124,7 +126,7 @@ def load(source: str | Path | Iterable[str | Path] = "synthetic", fps: float = 2
         seed = checks.whole(seed, "seed", minimum=0)
         return [Clip(name, motion.positions, fps, "synthetic")
                 for name, motion in synthetic.dataset(n_clips, duration_s, fps, seed)]
-    if isinstance(source, (str, Path)):
+    if isinstance(source, (str, os.PathLike)):
         path = Path(source)
         if path.is_dir():
             files = sorted(f for f in path.iterdir() if f.suffix.lower() in MOTION_SUFFIXES and f.is_file())
@@ -143,6 +145,25 @@ def load(source: str | Path | Iterable[str | Path] = "synthetic", fps: float = 2
     if cache is None or cache is False:
         return [_load_file(f, fps) for f in _progress(files)]
     return _load_cached(files, fps, CLIP_CACHE if cache is True else Path(cache))
+
+
+_SOURCES = ("'synthetic', a folder or a file (a str or a path), or a list of files")
+
+
+def _checked_source(source):
+    """``source`` of :func:`load` as given, or a list of paths; ``ValueError`` naming the
+    argument for anything else (a number, bytes, an empty list, a list of non-paths)."""
+    if isinstance(source, (str, os.PathLike)):
+        return source
+    if isinstance(source, (bytes, bytearray, dict)) or not isinstance(source, Iterable):
+        raise ValueError(f"source: expected {_SOURCES}, got {type(source).__name__} {source!r:.60}")
+    files = list(source)
+    if not files:
+        raise ValueError(f"source: the list of files is empty; expected {_SOURCES}")
+    bad = [f for f in files if not isinstance(f, (str, os.PathLike))]
+    if bad:
+        raise ValueError(f"source: expected a list of file paths, got {type(bad[0]).__name__} {bad[0]!r:.60} in it")
+    return files
 
 
 LOADER_VERSION = 1

@@ -33,10 +33,11 @@ Positions are metres, y up, floor at y = 0; angles in :class:`Style` are degrees
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 
+from . import checks
 from .filters import gaussian_smooth
 from .representation import CONTROL, integrate_control, to_features
 from .rotations import axis_rotation, y_rotation
@@ -71,6 +72,11 @@ class Body:
     upper_arm: float = 0.298
     forearm: float = 0.206
     hand: float = 0.036
+
+    def __post_init__(self):
+        checks.config(self, positive_fields=tuple(f.name for f in fields(self) if f.type == "float"))
+        for name in ("hip_offset", "shoulder_offset"):
+            object.__setattr__(self, name, tuple(checks.array(getattr(self, name), name, (3,)).tolist()))
 
     @classmethod
     def random(cls, rng: np.random.Generator) -> "Body":
@@ -120,6 +126,10 @@ class Style:
     asymmetry: float = 0.0        # left arm swings (1 + a) times, right arm (1 - a) times
     run_speed: float = 2.2        # forward speed (m/s) at the middle of the walk-run transition
     clearance: float = 1.0        # factor on how high the swinging foot lifts
+
+    def __post_init__(self):
+        checks.config(self, positive_fields=("cadence", "knee_reach", "run_speed"),
+                      non_negative_fields=("step_width", "arm_swing", "bounce", "sway", "clearance"))
 
     @classmethod
     def random(cls, rng: np.random.Generator) -> "Style":

@@ -31,6 +31,8 @@ import torch
 from torch import nn
 from tqdm.auto import tqdm
 
+from . import checks
+
 CHECKPOINT_FORMAT = "motionlab-checkpoint-1"
 
 PRECISIONS = {"fp32": None, "bf16": torch.bfloat16, "fp16": torch.float16}
@@ -83,6 +85,8 @@ class TrainConfig:
     precision: str = "fp32"
 
     def __post_init__(self):
+        checks.config(self, positive_fields=("lr", "grad_clip", "save_every_s"), non_negative_fields=("weight_decay",),
+                      fraction_fields=("min_lr_ratio",), zero_allowed=("warmup_steps", "seed"))
         if self.epochs < 1 or self.batch_size < 1 or self.lr <= 0:
             raise ValueError(f"epochs, batch_size and lr must be positive, got {self.epochs}, "
                              f"{self.batch_size}, {self.lr}")

@@ -26,6 +26,9 @@ from . import checks
 from .representation import N_FEATURES, root_trajectory
 from .skeleton import LOCOMOTION, Skeleton
 
+GRID_COLOR = "0.8"
+"""The floor grid's grey."""
+
 LEFT_COLOR, RIGHT_COLOR, CENTER_COLOR = "tab:blue", "tab:red", "black"
 
 
@@ -62,15 +65,28 @@ def _equal_3d_limits(ax, center: np.ndarray, radius: float, height: float) -> No
     ax.set_box_aspect((2 * radius, 2 * radius, height), zoom=1.1)
 
 
-def _floor_grid(ax, center: np.ndarray, radius: float, spacing: float = 0.5) -> list:
-    lines = []
+def _grid_segments(center: np.ndarray, radius: float, spacing: float) -> list[tuple[list, list]]:
+    """The floor grid's lines within ``radius`` of ``center`` (world x, z), each as its
+    plotted (z, x) end points."""
     lo_z, hi_z = center[1] - radius, center[1] + radius
     lo_x, hi_x = center[0] - radius, center[0] + radius
-    for z in np.arange(np.ceil(lo_z / spacing), np.floor(hi_z / spacing) + 1) * spacing:
-        lines += ax.plot([z, z], [lo_x, hi_x], [0, 0], color="0.85", lw=0.6, zorder=0)
-    for x in np.arange(np.ceil(lo_x / spacing), np.floor(hi_x / spacing) + 1) * spacing:
-        lines += ax.plot([lo_z, hi_z], [x, x], [0, 0], color="0.85", lw=0.6, zorder=0)
-    return lines
+    segments = [([z, z], [lo_x, hi_x]) for z in np.arange(np.ceil(lo_z / spacing), np.floor(hi_z / spacing) + 1) * spacing]
+    segments += [([lo_z, hi_z], [x, x]) for x in np.arange(np.ceil(lo_x / spacing), np.floor(hi_x / spacing) + 1) * spacing]
+    return segments
+
+
+def _floor_grid(ax, center: np.ndarray, radius: float, spacing: float = 0.5) -> list:
+    return [ax.plot(z, x, [0, 0], color=GRID_COLOR, lw=0.6, zorder=0)[0]
+            for z, x in _grid_segments(center, radius, spacing)]
+
+
+def _move_floor_grid(lines: list, center: np.ndarray, radius: float, spacing: float = 0.5) -> None:
+    """Lay the lines of a following camera's floor grid (made once, enough for any centre)
+    around ``center``; the ones not needed there are hidden."""
+    segments = _grid_segments(center, radius, spacing)
+    for k, line in enumerate(lines):
+        z, x = segments[k] if k < len(segments) else ([np.nan] * 2, [np.nan] * 2)
+        line.set_data_3d(np.asarray(z, dtype=float), np.asarray(x, dtype=float), np.zeros(2))
 
 
 def _style_3d(ax, title: str | None) -> None:
@@ -177,8 +193,14 @@ def animate(clips: np.ndarray | Sequence[np.ndarray], fps: float, titles: Sequen
         ax = fig.add_subplot(1, len(clips), i + 1, projection="3d")
         # a title wider than its panel would be cut at both ends: wrap it to the panel
         _style_3d(ax, textwrap.fill(titles[i], max(12, int(10 * size))) if titles else None)
-        if follow:                                   # the numbers would change every frame
-            ax.set_xticklabels([]), ax.set_yticklabels([])
+        grid = []
+        if follow:
+            # a moving camera's axes would show numbers that change every frame; without
+            # them (and their panes) a frame also draws about twice as fast. The floor grid
+            # moves under the character: its lines are made once, enough for any centre.
+            ax.set_axis_off()
+            grid = [ax.plot([], [], [], color=GRID_COLOR, lw=0.6, zorder=0)[0]
+                    for _ in range(2 * (int(2 * radius / 0.5) + 1))]
         height = clip[..., 1].max() + 0.1
         if not follow:
             center = 0.5 * (clip[:, 0, [0, 2]].min(0) + clip[:, 0, [0, 2]].max(0))
@@ -187,9 +209,12 @@ def animate(clips: np.ndarray | Sequence[np.ndarray], fps: float, titles: Sequen
             _floor_grid(ax, center, r)
         lines = [ax.plot([], [], [], color=c, lw=2)[0] for c in colors]
         trail = ax.plot([], [], [], color="tab:green", lw=1)[0]
-        panels.append({"ax": ax, "clip": clip, "lines": lines, "trail": trail, "grid": [],
+        panels.append({"ax": ax, "clip": clip, "lines": lines, "trail": trail, "grid": grid,
                        "height": height})
     fig.tight_layout(rect=(0.02, 0.04, 0.95, 0.93))       # room for the tick labels and a time label
+    # tight_layout leaves a placeholder layout engine behind, and with any engine set every
+    # saved frame is drawn twice (once to lay it out): the layout is done, so drop it
+    fig.set_layout_engine(None)
 
     def draw(frame: int):
         artists = []
@@ -198,10 +223,8 @@ def animate(clips: np.ndarray | Sequence[np.ndarray], fps: float, titles: Sequen
             t = min(frame, len(clip) - 1)
             pose = clip[t]
             if follow:
-                for line in p["grid"]:
-                    line.remove()
                 center = pose[0, [0, 2]]
-                p["grid"] = _floor_grid(ax, center, radius)
+                _move_floor_grid(p["grid"], center, radius)
                 _equal_3d_limits(ax, center, radius, p["height"])
             for (parent, child), line in zip(skeleton.bones, p["lines"]):
                 line.set_data_3d(*_plot_xyz(pose[[parent, child]]))

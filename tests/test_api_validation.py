@@ -299,3 +299,79 @@ def test_command_line_out_must_not_be_a_folder(tmp_path, capsys):
     with pytest.raises(SystemExit) as exit_info:
         cli.main(["conv_ae", "--out", str(tmp_path)])
     assert exit_info.value.code == 2 and "--out" in capsys.readouterr().err
+
+
+# ----------------------------------------------------------------------------------------
+# Config dataclasses: every field checked by its type, the field named
+# ----------------------------------------------------------------------------------------
+
+def _configs():
+    from motionlab import training
+    from motionlab.models.conv_ae import ConvAEConfig
+    from motionlab.models.dfn import DFNConfig
+    from motionlab.models.glow import GlowConfig
+    from motionlab.models.lstm import LSTMConfig
+    from motionlab.models.moglow import MoGlowConfig
+    from motionlab.models.vae import VAEConfig
+    from motionlab.models.vae_lstm import VAELSTMConfig
+    from motionlab.synthetic import Body, Style
+    return [training.TrainConfig, ConvAEConfig, DFNConfig, GlowConfig, LSTMConfig, MoGlowConfig, VAEConfig,
+            VAELSTMConfig, Body, Style]
+
+
+def _bad_values(config, field):
+    """Values a field of this annotation must refuse."""
+    kind = str(field.type)
+    if "bool" in kind:
+        return [1, "yes", None]
+    if "int" in kind and "tuple" not in kind:
+        return [math.nan, 2.5, 64.0, "3", True, -1] + ([] if "None" in kind else [None])
+    if "float" in kind:
+        return [math.nan, math.inf, -math.inf, "0.1", True] + ([] if "None" in kind else [None])
+    if kind == "str":
+        return [3, None]
+    return []
+
+
+CONFIG_CASES = [(config, field.name, bad) for config in _configs() for field in __import__("dataclasses").fields(config)
+                for bad in _bad_values(config, field)]
+
+
+@pytest.mark.parametrize("config, name, bad", CONFIG_CASES,
+                         ids=[f"{c.__name__}.{n}={b!r}" for c, n, b in CONFIG_CASES])
+def test_every_config_field_refuses_a_bad_value_naming_the_field(config, name, bad):
+    with pytest.raises(ValueError, match=rf"^{name}: "):
+        config(**{name: bad})
+
+
+@pytest.mark.parametrize("make, message", [
+    (lambda: __import__("motionlab.training").training.TrainConfig(batch_size=0), "batch_size"),
+    (lambda: __import__("motionlab.training").training.TrainConfig(lr=0.0), "lr"),
+    (lambda: __import__("motionlab.training").training.TrainConfig(min_lr_ratio=1.5), "min_lr_ratio"),
+    (lambda: __import__("motionlab.models.moglow").models.moglow.MoGlowConfig(fps=0), "fps"),
+    (lambda: __import__("motionlab.models.moglow").models.moglow.MoGlowConfig(fps=1e9), "fps"),
+    (lambda: __import__("motionlab.models.moglow").models.moglow.MoGlowConfig(hidden=0), "hidden"),
+    (lambda: __import__("motionlab.models.dfn").models.dfn.DFNConfig(observation_std=0.0), "observation_std"),
+    (lambda: __import__("motionlab.models.vae").models.vae.VAEConfig(beta=-1.0), "beta"),
+], ids=["batch_size=0", "lr=0", "min_lr_ratio=1.5", "fps=0", "fps=1e9", "hidden=0", "observation_std=0", "beta=-1"])
+def test_config_ranges_name_the_field(make, message):
+    with pytest.raises(ValueError, match=message):
+        make()
+
+
+def test_configs_take_numpy_numbers_and_give_python_ones():
+    from motionlab import training
+    from motionlab.models.moglow import MoGlowConfig
+    config = training.TrainConfig(epochs=np.int64(3), lr=np.float32(0.01), batch_size=8)
+    assert type(config.epochs) is int and type(config.lr) is float and config.epochs == 3
+    assert MoGlowConfig(fps=30).fps == 30.0 and type(MoGlowConfig(fps=30).fps) is float
+    for config in _configs():
+        config()                                                # every default is valid
+
+
+@pytest.mark.parametrize("source", [123, 1.5, b"clips", None, [], [1, 2], {"a": 1}],
+                         ids=["int", "float", "bytes", "None", "empty list", "list of ints", "dict"])
+def test_data_load_says_what_sources_it_takes(source):
+    from motionlab import data
+    with pytest.raises(ValueError, match=r"^source: .*(synthetic|file)"):
+        data.load(source)

@@ -284,6 +284,19 @@ def test_malformed_amc_names_file_and_line(tmp_path, old, new, where, message):
         asfamc.read_amc(write(tmp_path, "chain_01.amc", text), asf)
 
 
+def test_a_frame_without_bones_is_refused_before_any_array_is_made(tmp_path):
+    asf = asfamc.read_asf(write(tmp_path, "chain.asf", ASF_TEXT))
+    head = AMC_TEXT.split("\n3\n")[0]                       # frames 1 and 2
+    bare = head + "\n3\n\n# nothing here\n4\nroot 0 0 0 0 0 0\n"
+    line = head.count("\n") + 2                              # frame 3's line
+    with pytest.raises(ValueError, match=rf"chain_01\.amc:{line}: frame 3 gives no bone \(the next line is frame 4\)"):
+        asfamc.read_amc(write(tmp_path, "chain_01.amc", bare), asf)
+    # a file of bare frame numbers (millions of them would make gigabytes of rest poses)
+    numbers = ":FULLY-SPECIFIED\n:DEGREES\n1\nroot 0 0 0 0 0 0\n" + "\n".join(map(str, range(2, 200_000))) + "\n"
+    with pytest.raises(ValueError, match=r"chain_01\.amc:5: frame 2 gives no bone"):
+        asfamc.read_amc(write(tmp_path, "chain_01.amc", numbers), asf)
+
+
 def test_missing_files_and_skeleton_lookup(tmp_path):
     with pytest.raises(ValueError, match="cannot read ASF file"):
         asfamc.read_asf(tmp_path / "nope.asf")

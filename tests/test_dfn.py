@@ -133,6 +133,7 @@ def test_stages_freeze_the_others(prepared):
     assert torch.allclose(summaries.std(0), torch.ones(SMALL.summary), atol=1e-3)
 
 
+@pytest.mark.slow
 def test_staged_training_improves_every_stage(prepared):
     torch.manual_seed(0)
     model = DFN(SMALL)
@@ -172,6 +173,7 @@ def test_generation_length_and_finiteness(prepared):
     assert model.sample(prefix, 8).shape == (3, 8, 66)               # nothing to generate
 
 
+@pytest.mark.slow
 def test_trained_generation_is_stable_and_diversifies(prepared):
     """A small model trained briefly: 30 s of generated motion stays within the data's range,
     keeps moving, and samples from one prefix move apart."""
@@ -240,6 +242,7 @@ def test_forward_kinematics_matches_the_course_and_keeps_every_bone(prepared):
     assert np.allclose(LOCOMOTION.bone_lengths(joints.numpy()), lengths, atol=1e-5)   # any rotation, same bones
 
 
+@pytest.mark.slow
 def test_rotation_decoder_is_the_default_and_cannot_stretch_bones(prepared):
     assert DFNConfig().pose_decoder == "rotations" and DFNConfig.paper().pose_decoder == "rotations"
     with pytest.raises(ValueError, match="pose_decoder"):

@@ -30,6 +30,7 @@ def torchrun(processes: int, out, *extra) -> str:
     return result.stdout
 
 
+@pytest.mark.slow
 def test_two_processes_train_what_one_process_trains(tmp_path):
     one = torchrun(1, tmp_path / "one.pt")
     two = torchrun(2, tmp_path / "two.pt", "--save-every", "4")

@@ -186,7 +186,7 @@ def test_bad_configs_and_inputs(synthetic):
         GlowConfig(window=20, levels=4)
     with pytest.raises(ValueError, match="width: must be odd"):
         GlowConfig(width=4)
-    with pytest.raises(ValueError, match="levels, steps and hidden"):
+    with pytest.raises(ValueError, match="^steps: expected a whole number >= 1"):
         GlowConfig(steps=0)
     with pytest.raises(ValueError, match="constant_features"):
         GlowConfig(constant_features=(64,))                        # a control value: not modelled

@@ -43,6 +43,7 @@ def vae_lstm():
     return model, torch.randn(3, 16, 66, dtype=torch.float64)
 
 
+@pytest.mark.slow
 def test_the_vae_lstm_bound_is_the_negative_elbo_of_the_generating_model(vae_lstm):
     model, windows = vae_lstm
     scored = [1, 4, 7, 30, 62]

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 import torch
 
-from motionlab import training
+from motionlab import cpu, training
 from motionlab.models.conv_ae import ConvAEConfig, ConvAutoencoder
 from motionlab.models.glow import Glow, GlowConfig
 from motionlab.models.moglow import MoGlow, MoGlowConfig
@@ -38,14 +38,29 @@ def test_a_flow_under_bf16_autocast_keeps_its_likelihood_in_float32(make):
     assert abs(float(mixed) - float(exact)) < 0.02 * abs(float(exact)) + 0.02
 
 
-@bf16_cpu
-def test_moglow_coupling_lstm_computes_in_bfloat16_under_autocast():
-    # the LSTM is most of MoGlow's arithmetic: under autocast it runs in bfloat16 on the CPU too
+@pytest.mark.skipif(not cpu.onednn_lstm(torch.bfloat16), reason=f"oneDNN builds no bfloat16 LSTM here ({cpu.summary()})")
+def test_onednns_lstm_computes_in_bfloat16_under_autocast():
+    # where oneDNN has a bfloat16 LSTM (AVX-512 and newer), nn.LSTM itself runs in bfloat16
     from motionlab.models.moglow import LSTMCouplingNet
     network = LSTMCouplingNet(3, 5, 6, hidden=8)
     lo, cond = torch.randn(2, 7, 3), torch.randn(2, 7, 5)
     with torch.autocast("cpu", dtype=torch.bfloat16):
         hidden, _ = network.lstm(torch.cat([lo, cond], -1))
+    assert hidden.dtype == torch.bfloat16
+    exact, _ = network.lstm(torch.cat([lo, cond], -1))
+    torch.testing.assert_close(hidden.float(), exact, atol=0.02, rtol=0.02)      # bfloat16: ~3 digits
+
+
+@bf16_cpu
+def test_moglow_coupling_lstm_computes_in_bfloat16_under_autocast():
+    # the LSTM is most of MoGlow's arithmetic: under autocast it runs in bfloat16 on any CPU
+    # (the written-out LSTM of motionlab.models.recurrent, whatever oneDNN can build)
+    from motionlab.models import recurrent
+    from motionlab.models.moglow import LSTMCouplingNet
+    network = LSTMCouplingNet(3, 5, 6, hidden=8)
+    lo, cond = torch.randn(2, 7, 3), torch.randn(2, 7, 5)
+    with torch.autocast("cpu", dtype=torch.bfloat16):
+        hidden = recurrent.from_zero_state(network.lstm, lo, cond)
         assert hidden.dtype == torch.bfloat16
         assert network(lo, cond).shape == (2, 7, 6)
     exact, _ = network.lstm(torch.cat([lo, cond], -1))

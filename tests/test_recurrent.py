@@ -3,9 +3,12 @@ import pytest
 import torch
 from torch import nn
 
-from motionlab import training
+from motionlab import cpu, training
 from motionlab.models.moglow import LSTMCouplingNet, MoGlow, MoGlowConfig
-from motionlab.models.recurrent import can_use, lstm, pays_off
+from motionlab.models.recurrent import can_use, lstm, pays_off, run
+
+onednn_bf16_lstm = pytest.mark.skipif(not cpu.onednn_lstm(torch.bfloat16),
+                                      reason=f"oneDNN builds no bfloat16 LSTM here ({cpu.summary()})")
 
 
 def _pair(inputs=5, extra=7, hidden=6, layers=2, batch=3, frames=4, dtype=torch.float32, seed=0):
@@ -17,9 +20,11 @@ def _pair(inputs=5, extra=7, hidden=6, layers=2, batch=3, frames=4, dtype=torch.
 
 
 def _grads(module, a, b, out):
-    weights = torch.randn_like(out, generator=torch.Generator().manual_seed(1)) if out.dtype != torch.bfloat16 \
-        else torch.randn(out.shape, generator=torch.Generator().manual_seed(1))
-    (out.float() * weights.float()).sum().backward()
+    # the same random weighting of the outputs whatever their dtype (bfloat16 outputs are
+    # compared with float32 ones)
+    dtype = torch.float64 if out.dtype == torch.float64 else torch.float32
+    weights = torch.randn(out.shape, generator=torch.Generator().manual_seed(1), dtype=dtype)
+    (out.to(dtype) * weights).sum().backward()
     grads = {name: p.grad.clone() for name, p in module.named_parameters()}
     grads["inputs"] = a.grad.clone()
     if b.requires_grad:
@@ -86,6 +91,7 @@ def test_short_sequences(frames):
     torch.testing.assert_close(lstm(module, a, b), module(torch.cat([a, b], -1))[0])
 
 
+@onednn_bf16_lstm
 def test_bfloat16_autocast_follows_float32():
     """Under CPU autocast the products run in bfloat16 (8 significant bits) and the gates
     and cell state in float32: the outputs and gradients stay within the error oneDNN's own
@@ -106,6 +112,77 @@ def test_bfloat16_autocast_follows_float32():
         ours_error = (ours[name] - exact[name]).abs().max() / scale
         theirs_error = (theirs[name] - exact[name]).abs().max() / scale
         assert ours_error <= 2 * theirs_error + 0.01, (name, ours_error, theirs_error)
+
+
+def test_bfloat16_autocast_follows_float32_on_any_cpu():
+    """Where oneDNN has no bfloat16 LSTM to compare with (AVX2), the bound is bfloat16's own:
+    the products' operands are rounded to 8 significant bits (relative error <= 2^-9), so
+    outputs (in (-1, 1)) and gradients stay within a few roundings' worth of float32."""
+    module, a, b = _pair(inputs=31, extra=200, hidden=64, layers=2, batch=8, frames=30)
+    exact_out = module(torch.cat([a, b], -1))[0]
+    exact = _grads(module, a, b, exact_out)
+    with torch.autocast("cpu", dtype=torch.bfloat16):
+        ours_out = lstm(module, a, b)
+    assert ours_out.dtype == torch.bfloat16
+    ours = _grads(module, a, b, ours_out)
+    assert (ours_out.float() - exact_out).abs().max() < 16 * 2 ** -9
+    for name in exact:
+        error = (ours[name] - exact[name]).abs().max() / exact[name].abs().max()
+        assert error < 16 * 2 ** -9, (name, error)
+
+
+@pytest.mark.parametrize("dtype", [torch.bfloat16, torch.float16])
+def test_run_falls_back_to_pytorchs_own_lstm_where_onednn_has_none(monkeypatch, dtype):
+    # as on an AVX2 laptop, whatever this CPU is: oneDNN is switched off around nn.LSTM, and
+    # PyTorch's own LSTM cells run it (their products lowered by autocast, outputs float32)
+    monkeypatch.setattr(cpu, "onednn_lstm", lambda d: d == torch.float32)
+    module, a, b = _pair()
+    onednn_during = []
+    module.register_forward_pre_hook(lambda *_: onednn_during.append(torch.backends.mkldnn.enabled))
+    x = torch.cat([a, b], -1)
+    with torch.autocast("cpu", dtype=dtype):
+        out, (h, c) = run(module, x)
+    assert onednn_during == [not torch.backends.mkldnn.is_available() and torch.backends.mkldnn.enabled]
+    assert torch.backends.mkldnn.enabled                          # restored
+    assert out.dtype == torch.float32
+    bits = 8 if dtype == torch.bfloat16 else 11                  # significant bits of the products
+    torch.testing.assert_close(out, module(x)[0], rtol=0, atol=16 * 2.0 ** -(bits + 1))
+    out.sum().backward()
+    assert a.grad is not None and torch.isfinite(a.grad).all()
+
+
+@pytest.mark.parametrize("precision", ["bf16", "fp16"])
+@pytest.mark.parametrize("make", ["lstm_3lr", "moglow_nn_lstm", "moglow_carrying"])
+def test_every_library_lstm_runs_under_autocast_on_this_cpu(make, precision):
+    """The library never hands oneDNN an LSTM it cannot build: LSTM-3LR, MoGlow's couplings
+    through nn.LSTM, and MoGlow's carried state while sampling, under both autocasts."""
+    from motionlab.models.lstm import LSTMConfig, MotionLSTM
+    low = training.PRECISIONS[precision]
+    torch.manual_seed(0)
+    if make == "lstm_3lr":
+        model = MotionLSTM(LSTMConfig(window=12, hidden=8, layers=2))
+        x = torch.randn(4, 12, 66)
+        with torch.autocast("cpu", dtype=low):
+            loss = model.loss(x)["loss"]
+        loss.backward()
+        assert torch.isfinite(loss)
+        return
+    model = MoGlow(MoGlowConfig(window=12, history=3, steps=2, hidden=8, dropout=0.0))
+    x = torch.randn(4, 12, 66)
+    x[..., [0, 2]] = 0.0
+    model.loss(x)                                                  # ActNorm's initialisation
+    networks = [m for m in model.modules() if isinstance(m, LSTMCouplingNet)]
+    if make == "moglow_nn_lstm":
+        for network in networks:
+            network.written_out = False
+        with torch.autocast("cpu", dtype=low):
+            loss = model.loss(x)["loss"]
+        loss.backward()
+        assert torch.isfinite(loss)
+    else:
+        with torch.no_grad(), torch.autocast("cpu", dtype=low):
+            poses = model.sample(x[:, 3:, -3:], x[:, :3], temperature=0.5)
+        assert torch.isfinite(poses).all()
 
 
 def test_retain_graph_gives_the_same_gradients_twice():

@@ -89,7 +89,7 @@ def test_nan_guard_stops_with_a_clear_message():
 def test_bad_train_configs_are_value_errors():
     with pytest.raises(ValueError, match="schedule"):
         training.TrainConfig(schedule="linear")
-    with pytest.raises(ValueError, match="positive"):
+    with pytest.raises(ValueError, match="^epochs: expected a whole number >= 1"):
         training.TrainConfig(epochs=0)
     with pytest.raises(ValueError, match="training set is empty"):
         training.train(Line(), data.MotionDataset(np.zeros((0, 8, 4))), training.TrainConfig(progress=False))

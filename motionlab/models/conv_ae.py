@@ -23,6 +23,7 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
+from .. import checks
 from .base import eval_mode
 
 
@@ -57,6 +58,7 @@ class ConvAEConfig:
     l1: float = 1e-5
 
     def __post_init__(self):
+        checks.config(self, non_negative_fields=("input_noise", "l1"), probability_fields=("input_dropout",))
         if self.window % 2 or self.window < 2:
             raise ValueError(f"window: must be even and >= 2 (pooling halves it), got {self.window}")
         if self.width % 2 == 0:

@@ -111,6 +111,7 @@ class DFNConfig:
     pose_decoder: str = "rotations"
 
     def __post_init__(self):
+        checks.config(self, positive_fields=("observation_std",), non_negative_fields=("td_weight", "velocity_weight"))
         for name in ("n_pose", "n_control", "frame_hidden", "pose_code", "velocity_code", "horizon",
                      "summary", "past", "future", "current", "future_prior_hidden",
                      "current_prior_hidden", "summary_decoder_hidden", "current_posterior_hidden",

@@ -73,6 +73,7 @@ class GlowConfig:
     constant_features: tuple[int, ...] = (0, 2)
 
     def __post_init__(self):
+        checks.config(self)
         object.__setattr__(self, "constant_features", tuple(int(i) for i in self.constant_features))
         if self.levels < 1 or self.steps < 1 or self.hidden < 1:
             raise ValueError(f"levels, steps and hidden: need at least 1 each, got {self.levels}, "

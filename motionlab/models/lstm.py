@@ -29,6 +29,7 @@ import torch.nn.functional as F
 from torch import nn
 
 from .. import checks
+from . import recurrent
 from .base import Generated, GenerativeModel, eval_mode
 
 
@@ -61,6 +62,7 @@ class LSTMConfig:
     input_noise: float = 0.05
 
     def __post_init__(self):
+        checks.config(self, non_negative_fields=("input_noise",))
         if self.control not in ("predicted", "given"):
             raise ValueError(f"control: expected 'predicted' or 'given', got {self.control!r}")
         for name in ("n_pose", "n_control", "hidden", "layers"):
@@ -131,7 +133,7 @@ class MotionLSTM(GenerativeModel, nn.Module):
                                  f"{self.config.n_control}) next-frame controls, got "
                                  f"{None if next_control is None else tuple(next_control.shape)}")
             inputs = torch.cat([frames, next_control], dim=-1)
-        hidden, state = self.lstm(inputs, state)
+        hidden, state = recurrent.run(self.lstm, inputs, state)
         return self.readout(hidden), state
 
     def loss(self, batch: torch.Tensor) -> dict[str, torch.Tensor]:

@@ -60,7 +60,8 @@ import torch
 from torch import nn
 
 from . import recurrent
-from .base import Generated, eval_mode, generator_for, native_bfloat16, onednn_disabled
+from .. import checks, cpu
+from .base import Generated, eval_mode, generator_for
 from .flows import (_LOG_SIGMOID_SHIFT, SCALE_SHIFT, FlowSequence, FlowStep, GaussianPrior, MLPCouplingNet,
                     output_layer)
 from .glow import MotionFlow
@@ -107,6 +108,7 @@ class MoGlowConfig:
     constant_features: tuple[int, ...] = (0, 2)
 
     def __post_init__(self):
+        checks.config(self, probability_fields=("dropout",))
         object.__setattr__(self, "constant_features", tuple(int(i) for i in self.constant_features))
         if min(self.history, self.steps, self.hidden, self.lstm_layers) < 1:
             raise ValueError(f"history, steps, hidden and lstm_layers: need at least 1 each, got {self.history}, "
@@ -160,7 +162,7 @@ class LSTMCouplingNet(nn.Module):
             hidden = recurrent.from_zero_state(self.lstm, lo, cond)
         else:
             inputs = lo if cond is None else torch.cat([lo, cond], dim=-1)
-            hidden, state = self.lstm(inputs, self.state if self.carrying else None)
+            hidden, state = recurrent.run(self.lstm, inputs, self.state if self.carrying else None)
             if self.carrying:
                 self.state = state
         return output_layer(self.output, hidden, lo)            # float32 under mixed precision
@@ -496,16 +498,20 @@ class MoGlowStream:
         self._history_scale = model.history_scale                        # fixed for the stream's life
         # How one frame's LSTM products run on a CPU (measured over paper-size layers, see
         # benchmarks/moglow_speed.py). One stream only reads weights, and the kernels differ:
-        # * bfloat16, native arithmetic (AVX512-BF16, AMX): PyTorch's own matrix product, not
-        #   oneDNN's, reads them at about the memory bandwidth (~22-32 against ~14-17 GB/s);
-        # * bfloat16, emulated: the matrix-vector kernel reads them faster than a product;
+        # * bfloat16, native arithmetic (AVX512-BF16, AMX) for both kernel families
+        #   (motionlab.cpu: oneDNN's instruction set and ATen's, each capped by its variable):
+        #   PyTorch's own matrix product, not oneDNN's, reads them at about the memory
+        #   bandwidth (~22-32 against ~14-17 GB/s);
+        # * bfloat16, emulated (AVX2 laptops, or capped): the matrix-vector kernel reads them
+        #   faster than a product;
         # * float32: oneDNN's product of the row with the weights stored transposed,
         #   ``(in, 4H)``, reads them faster (~17-21 GB/s) than against ``(4H, in)`` (~14).
         # Several streams are arithmetic: oneDNN's product against ``(4H, in)``.
         one_cpu_stream = self.batch == 1 and device.type == "cpu"
         self._kernel = "product"
         if one_cpu_stream and weights == torch.bfloat16:
-            self._kernel = "own product" if native_bfloat16() else "matrix-vector"
+            native = cpu.native_bfloat16() and cpu.aten_capability().startswith("AVX512")
+            self._kernel = "own product" if native else "matrix-vector"
         elif one_cpu_stream:
             self._kernel = "transposed"
         with torch.inference_mode():
@@ -639,7 +645,7 @@ class MoGlowStream:
             The new frame's features ``(batch, n_features)``, normalised or in data units.
         """
         model = self.model
-        own_products = onednn_disabled() if self._kernel == "own product" else nullcontext()
+        own_products = cpu.onednn_disabled() if self._kernel == "own product" else nullcontext()
         with torch.inference_mode(), own_products:
             control = self._normalised_control(control)
             shape = (self.batch, model.n_modelled)

@@ -30,12 +30,21 @@ float32 and 1.5x in bfloat16; paper size 1.2x in bfloat16, but 0.9x in float32, 
 oneDNN's kernel runs at the machine's float32 product rate, so there MoGlow keeps
 ``nn.LSTM``. LSTM-3LR (66 inputs, three layers of 128) trains 2x slower with it and keeps
 ``nn.LSTM`` too. On a GPU, cuDNN is used as before.
+
+Every ``nn.LSTM`` of the library runs through :func:`run` (or :func:`from_zero_state`):
+oneDNN has no bfloat16 or float16 LSTM on many CPUs (AVX2 laptops among them), and there
+``nn.LSTM`` under autocast raises instead of computing; :func:`run` then uses PyTorch's
+own LSTM cells (autocast still lowers their products; their outputs are float32).
 """
 from __future__ import annotations
+
+from contextlib import nullcontext
 
 import torch
 from torch import nn
 from torch.autograd.function import once_differentiable
+
+from .. import cpu
 
 
 def can_use(module: nn.LSTM, inputs: torch.Tensor) -> bool:
@@ -71,15 +80,27 @@ def pays_off(module: nn.LSTM, extra_width: int, dtype: torch.dtype) -> bool:
     return size * extra_width >= products / 5
 
 
+def run(module: nn.LSTM, inputs: torch.Tensor, state: tuple[torch.Tensor, torch.Tensor] | None = None):
+    """``module(inputs, state)``, on any CPU: where oneDNN cannot build the LSTM that
+    autocast asks for (bfloat16 or float16 on a CPU without such kernels, see
+    :func:`motionlab.cpu.onednn_lstm`), PyTorch's own LSTM cells run it instead (autocast
+    still lowers their products; their outputs are float32). Returns what ``nn.LSTM``
+    returns."""
+    fallback = (inputs.device.type == "cpu" and torch.backends.mkldnn.enabled
+                and not cpu.onednn_lstm(product_dtype(inputs)))
+    with cpu.onednn_disabled() if fallback else nullcontext():
+        return module(inputs, state)
+
+
 def from_zero_state(module: nn.LSTM, inputs: torch.Tensor, extra: torch.Tensor | None = None) -> torch.Tensor:
     """``module``'s last-layer outputs ``(batch, frames, hidden)`` from a zero state over
     ``torch.cat([inputs, extra], -1)``: through :func:`lstm` where that is measured faster
     (:func:`can_use` and :func:`pays_off`; ``extra`` counts as needing no gradient unless it
-    requires one), else through ``module`` itself."""
+    requires one), else through ``module`` itself (:func:`run`)."""
     needless = 0 if extra is None or extra.requires_grad else extra.shape[-1]
     if can_use(module, inputs) and pays_off(module, needless, product_dtype(inputs)):
         return lstm(module, inputs, extra)
-    return module(inputs if extra is None else torch.cat([inputs, extra], dim=-1))[0]
+    return run(module, inputs if extra is None else torch.cat([inputs, extra], dim=-1))[0]
 
 
 def lstm(module: nn.LSTM, inputs: torch.Tensor, extra: torch.Tensor | None = None) -> torch.Tensor:

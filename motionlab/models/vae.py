@@ -29,6 +29,7 @@ import numpy as np
 import torch
 from torch import nn
 
+from .. import checks
 from . import gaussian
 from .base import Generated, GenerativeModel, generator_for
 
@@ -55,6 +56,7 @@ class VAEConfig:
     min_log_var: float = -6.0
 
     def __post_init__(self):
+        checks.config(self, non_negative_fields=("beta",), zero_allowed=("kl_warmup_steps",))
         if min(self.n_inputs, self.hidden, self.latent) < 1:
             raise ValueError(f"n_inputs, hidden and latent must be >= 1, got {self.n_inputs}, "
                              f"{self.hidden}, {self.latent}")

@@ -38,6 +38,7 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
+from .. import checks
 from . import gaussian
 from .base import Generated, GenerativeModel, eval_mode, generator_for
 
@@ -95,6 +96,8 @@ class VAELSTMConfig:
     upsample: str = "linear"
 
     def __post_init__(self):
+        checks.config(self, positive_fields=("observation_std",), probability_fields=("dropout",),
+                      non_negative_fields=("l1", "free_running", "control_smoothing_s"))
         for name in ("n_pose", "n_control", "window", "control_filters", "control_code",
                      "inference_filters", "units", "decoder_filters"):
             if getattr(self, name) < 1:
