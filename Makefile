@@ -21,7 +21,7 @@ lab: setup
 	$(BIN)/jupyter lab notebooks
 
 test: setup
-	$(BIN)/python -m pytest
+	$(BIN)/python -m pytest --durations=15
 
 # The edit loop: the unit tests without the notebooks and the slow ones (under 2 minutes).
 test-fast: setup
