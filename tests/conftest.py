@@ -99,20 +99,18 @@ def _clip_cache_in_a_temporary_folder(tmp_path_factory):
 # Where the suite's time goes: each notebook's seconds (all its cells), after the run
 # ----------------------------------------------------------------------------------------
 
-_SECONDS_PER_FILE: dict[str, float] = {}
-
-
-def pytest_runtest_logreport(report):
-    path = report.nodeid.split("::")[0]
-    _SECONDS_PER_FILE[path] = _SECONDS_PER_FILE.get(path, 0.0) + report.duration
-
-
 def pytest_terminal_summary(terminalreporter):
-    notebooks = {path: s for path, s in _SECONDS_PER_FILE.items() if path.endswith(".ipynb")}
-    tests = sum(s for path, s in _SECONDS_PER_FILE.items() if not path.endswith(".ipynb"))
+    seconds: dict[str, float] = {}
+    for reports in terminalreporter.stats.values():
+        for report in reports:
+            if hasattr(report, "duration") and hasattr(report, "nodeid"):
+                path = report.nodeid.split("::")[0]
+                seconds[path] = seconds.get(path, 0.0) + report.duration
+    notebooks = {path: s for path, s in seconds.items() if path.endswith(".ipynb")}
     if not notebooks:
         return
+    tests = sum(s for path, s in seconds.items() if not path.endswith(".ipynb"))
     terminalreporter.write_sep("-", "seconds per notebook (setup, cells and teardown)")
-    for path, seconds in sorted(notebooks.items()):
-        terminalreporter.write_line(f"{seconds:7.1f} s  {path}")
+    for path, s in sorted(notebooks.items()):
+        terminalreporter.write_line(f"{s:7.1f} s  {path}")
     terminalreporter.write_line(f"{sum(notebooks.values()):7.1f} s  all notebooks; {tests:.1f} s the tests in tests/")

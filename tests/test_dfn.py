@@ -22,7 +22,6 @@ SMALL = DFNConfig(frame_hidden=32, pose_code=6, velocity_code=2, horizon=4, summ
 
 @pytest.fixture(scope="module")
 def prepared():
-    torch.set_num_threads(1)
     clips = data.load("synthetic", n_clips=8, duration_s=6.0)
     return data.prepare(clips, window_s=1.0, stride_s=0.5, augment_with=("mirror",))
 
