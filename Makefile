@@ -11,11 +11,11 @@ BIN     = $(VENV)/bin
 
 setup: $(VENV)/.installed
 
-# --no-compile: Python compiles each module when it is first imported instead (a faster set-up)
+#: Python compiles each module when it is first imported instead (a faster set-up)
 $(VENV)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
-	$(BIN)/python -m pip install --quiet --no-compile "$(TORCH)"
-	$(BIN)/python -m pip install --quiet --no-compile -e ".[dev]"
+	$(BIN)/python -m pip install --quiet "$(TORCH)"
+	$(BIN)/python -m pip install --quiet -e ".[dev]"
 	touch $@
 
 lab: setup
