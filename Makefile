@@ -11,7 +11,6 @@ BIN     = $(VENV)/bin
 
 setup: $(VENV)/.installed
 
-#: Python compiles each module when it is first imported instead (a faster set-up)
 $(VENV)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet "$(TORCH)"
