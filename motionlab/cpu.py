@@ -90,7 +90,7 @@ def onednn_isa() -> str:
         return ""
     try:
         isa = _isa_line(_report_in_this_process())
-    except OSError:                                  # no file descriptor 1 to borrow
+    except (OSError, TypeError, AttributeError):     # no file descriptor 1 to borrow, no C library by name
         isa = None
     if isa is None:
         isa = _isa_line(_report_in_a_new_process())

@@ -26,8 +26,8 @@ from . import checks
 from .representation import N_FEATURES, root_trajectory
 from .skeleton import LOCOMOTION, Skeleton
 
-GRID_COLOR = "0.8"
-"""The floor grid's grey."""
+GRID_COLOR, GRID_SPACING_M = "0.8", 0.5
+"""The floor grid's grey and the distance between its lines (metres)."""
 
 LEFT_COLOR, RIGHT_COLOR, CENTER_COLOR = "tab:blue", "tab:red", "black"
 
@@ -75,12 +75,12 @@ def _grid_segments(center: np.ndarray, radius: float, spacing: float) -> list[tu
     return segments
 
 
-def _floor_grid(ax, center: np.ndarray, radius: float, spacing: float = 0.5) -> list:
+def _floor_grid(ax, center: np.ndarray, radius: float, spacing: float = GRID_SPACING_M) -> list:
     return [ax.plot(z, x, [0, 0], color=GRID_COLOR, lw=0.6, zorder=0)[0]
             for z, x in _grid_segments(center, radius, spacing)]
 
 
-def _move_floor_grid(lines: list, center: np.ndarray, radius: float, spacing: float = 0.5) -> None:
+def _move_floor_grid(lines: list, center: np.ndarray, radius: float, spacing: float = GRID_SPACING_M) -> None:
     """Lay the lines of a following camera's floor grid (made once, enough for any centre)
     around ``center``; the ones not needed there are hidden."""
     segments = _grid_segments(center, radius, spacing)
@@ -200,7 +200,7 @@ def animate(clips: np.ndarray | Sequence[np.ndarray], fps: float, titles: Sequen
             # moves under the character: its lines are made once, enough for any centre.
             ax.set_axis_off()
             grid = [ax.plot([], [], [], color=GRID_COLOR, lw=0.6, zorder=0)[0]
-                    for _ in range(2 * (int(2 * radius / 0.5) + 1))]
+                    for _ in range(2 * (int(2 * radius / GRID_SPACING_M) + 1))]
         height = clip[..., 1].max() + 0.1
         if not follow:
             center = 0.5 * (clip[:, 0, [0, 2]].min(0) + clip[:, 0, [0, 2]].max(0))

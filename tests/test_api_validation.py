@@ -4,6 +4,7 @@ One case per (function, bad input): a wrong-shaped, empty or non-finite array, o
 number (a frame rate of NaN, inf, 0, -20 or 1e12 fps, ...). The command line reports bad
 options as a usage error (exit code 2) naming the option.
 """
+import dataclasses
 import math
 
 import matplotlib.pyplot as plt
@@ -11,9 +12,12 @@ import numpy as np
 import pytest
 import torch
 
-from motionlab import filters, metrics, viz
+from motionlab import data, filters, metrics, training, viz
 from motionlab import representation as rep
 from motionlab.models.conv_ae import ConvAEConfig, ConvAutoencoder
+from motionlab.models.dfn import DFNConfig
+from motionlab.models.moglow import MoGlowConfig
+from motionlab.models.vae import VAEConfig
 
 from conftest import walker
 
@@ -306,13 +310,8 @@ def test_command_line_out_must_not_be_a_folder(tmp_path, capsys):
 # ----------------------------------------------------------------------------------------
 
 def _configs():
-    from motionlab import training
-    from motionlab.models.conv_ae import ConvAEConfig
-    from motionlab.models.dfn import DFNConfig
     from motionlab.models.glow import GlowConfig
     from motionlab.models.lstm import LSTMConfig
-    from motionlab.models.moglow import MoGlowConfig
-    from motionlab.models.vae import VAEConfig
     from motionlab.models.vae_lstm import VAELSTMConfig
     from motionlab.synthetic import Body, Style
     return [training.TrainConfig, ConvAEConfig, DFNConfig, GlowConfig, LSTMConfig, MoGlowConfig, VAEConfig,
@@ -333,7 +332,7 @@ def _bad_values(config, field):
     return []
 
 
-CONFIG_CASES = [(config, field.name, bad) for config in _configs() for field in __import__("dataclasses").fields(config)
+CONFIG_CASES = [(config, field.name, bad) for config in _configs() for field in dataclasses.fields(config)
                 for bad in _bad_values(config, field)]
 
 
@@ -345,14 +344,14 @@ def test_every_config_field_refuses_a_bad_value_naming_the_field(config, name, b
 
 
 @pytest.mark.parametrize("make, message", [
-    (lambda: __import__("motionlab.training").training.TrainConfig(batch_size=0), "batch_size"),
-    (lambda: __import__("motionlab.training").training.TrainConfig(lr=0.0), "lr"),
-    (lambda: __import__("motionlab.training").training.TrainConfig(min_lr_ratio=1.5), "min_lr_ratio"),
-    (lambda: __import__("motionlab.models.moglow").models.moglow.MoGlowConfig(fps=0), "fps"),
-    (lambda: __import__("motionlab.models.moglow").models.moglow.MoGlowConfig(fps=1e9), "fps"),
-    (lambda: __import__("motionlab.models.moglow").models.moglow.MoGlowConfig(hidden=0), "hidden"),
-    (lambda: __import__("motionlab.models.dfn").models.dfn.DFNConfig(observation_std=0.0), "observation_std"),
-    (lambda: __import__("motionlab.models.vae").models.vae.VAEConfig(beta=-1.0), "beta"),
+    (lambda: training.TrainConfig(batch_size=0), "batch_size"),
+    (lambda: training.TrainConfig(lr=0.0), "lr"),
+    (lambda: training.TrainConfig(min_lr_ratio=1.5), "min_lr_ratio"),
+    (lambda: MoGlowConfig(fps=0), "fps"),
+    (lambda: MoGlowConfig(fps=1e9), "fps"),
+    (lambda: MoGlowConfig(hidden=0), "hidden"),
+    (lambda: DFNConfig(observation_std=0.0), "observation_std"),
+    (lambda: VAEConfig(beta=-1.0), "beta"),
 ], ids=["batch_size=0", "lr=0", "min_lr_ratio=1.5", "fps=0", "fps=1e9", "hidden=0", "observation_std=0", "beta=-1"])
 def test_config_ranges_name_the_field(make, message):
     with pytest.raises(ValueError, match=message):
@@ -360,8 +359,6 @@ def test_config_ranges_name_the_field(make, message):
 
 
 def test_configs_take_numpy_numbers_and_give_python_ones():
-    from motionlab import training
-    from motionlab.models.moglow import MoGlowConfig
     config = training.TrainConfig(epochs=np.int64(3), lr=np.float32(0.01), batch_size=8)
     assert type(config.epochs) is int and type(config.lr) is float and config.epochs == 3
     assert MoGlowConfig(fps=30).fps == 30.0 and type(MoGlowConfig(fps=30).fps) is float
@@ -372,6 +369,5 @@ def test_configs_take_numpy_numbers_and_give_python_ones():
 @pytest.mark.parametrize("source", [123, 1.5, b"clips", None, [], [1, 2], {"a": 1}],
                          ids=["int", "float", "bytes", "None", "empty list", "list of ints", "dict"])
 def test_data_load_says_what_sources_it_takes(source):
-    from motionlab import data
     with pytest.raises(ValueError, match=r"^source: .*(synthetic|file)"):
         data.load(source)
