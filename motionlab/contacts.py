@@ -1,0 +1,535 @@
+"""Feet that stay planted: foot contacts, foot locking with two-bone IK, and bones put back
+to their lengths. What turns a model's samples into a character.
+
+Why generated feet slide. In the root-local representation (``representation``) the body
+moves by the control, and a planted foot must sweep backwards in the root frame by exactly
+the control's displacement every frame to stay still in the world. A model predicts that
+sweep with some error (sampling noise from frame to frame, a stride on average a little
+short), and every centimetre of error is a centimetre of sliding over the floor. None of
+the four papers fixes this; every system that ships characters does, the same way (PFNN,
+Holden et al. 2017; Learned Motion Matching, Holden et al. 2020; GANimator, Li et al. 2022):
+label the contacts, then keep a foot in contact where it landed and let the leg reach it.
+
+Three functions, one per step, on world positions ``(..., frames, 21, 3)`` in metres:
+
+* :func:`detect`: contact labels ``(..., frames, 4)`` for the ankles and toes
+  (:data:`FEET` order), from each joint's height above its planted height and its
+  horizontal speed, with hysteresis and a short majority filter;
+* :func:`lock_feet` (:func:`lock` also returns what it did): while a foot is in contact it
+  stays where it landed, on the floor; the leg reaches it by analytic two-bone IK (hip
+  fixed, bone lengths the motion's own, knee in the plane it bent in); the lock lets go
+  when the contact ends or the foot runs out of the leg's reach, and both transitions blend
+  over :data:`BLEND_S` (no pops). Nothing above the hips moves;
+* :func:`fit_bones`: every bone back to one length (the motion's median or the data's),
+  each bone's direction kept.
+
+:class:`FootLock` is the same lock one frame at a time, with no look-ahead: what a
+real-time stream (``MoGlowStream``) can use. :func:`lock` is that class run over a clip.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import checks
+from .skeleton import FEET, LOCOMOTION, Skeleton
+
+# ----------------------------------------------------------------------------------------
+# Thresholds (measured on the built-in data and on the 55 CMU clips of ../shared/mocap/cmu
+# at 20 fps; see notebook 01, section 5)
+# ----------------------------------------------------------------------------------------
+
+CONTACT_HEIGHT_M = (0.05, 0.03, 0.05, 0.03)
+"""How far above its planted height an ankle / toe (:data:`FEET` order) may be and still be
+in contact, metres. The literature's 8 cm (ankle) and 4 cm (toe) are heights above the floor
+of joints that sit 3-8 cm up when planted; measured above the planted height instead
+(:func:`planted_heights`), the data's stance frames stay within 3 cm (toes) and 5 cm
+(ankles: the heel rises first at toe-off)."""
+
+CONTACT_SPEED_MS = 0.5
+"""Horizontal speed below which a low foot joint is in contact, m/s. The literature uses
+0.15-0.3 m/s on clean capture; generated feet slide (that is what locking fixes), so a
+planted foot of a sampled model moves at up to about half the body's speed. A swinging
+foot near the floor moves at 2-4 m/s while walking, so 0.5 m/s still tells them apart."""
+
+BODY_FRACTION = 0.5
+"""... or slower than this fraction of the hips' horizontal speed, whichever is higher. A
+foot planted by the data stays below 0.3 of the body's speed; a model's planted foot slides
+at up to about half of it; a swinging foot moves at 1.3-2 times the body's speed."""
+
+RELEASE = 1.5
+"""Hysteresis: a joint in contact stays in contact until it is more than ``RELEASE`` times
+a threshold above it (height or speed), so noise near a threshold does not flicker."""
+
+CLEAN_S = 0.15
+"""Width of the majority filter that cleans the labels offline, seconds (3 frames at 20
+fps): a contact or a gap shorter than half of it is removed."""
+
+BLEND_S = 0.15
+"""How long the lock takes to draw a landing foot onto the floor, seconds."""
+
+RELEASE_S = 0.25
+"""How long a foot that lets go takes to rejoin the motion, seconds: long enough that most
+of the catching up happens in the air, where it is not sliding."""
+
+PLANTED_HEIGHT_M = (0.081, 0.034, 0.081, 0.034)
+"""Planted heights of the built-in bodies' ankles and toes, metres (the 5th percentile of
+their height, ``metrics.foot_rest_heights``): the floor the causal lock uses when it is
+given none and cannot look at a whole clip."""
+
+FOLLOW = 0.5
+"""Per frame, how much of its own offset a foot joint out of contact keeps while the other
+joint of its foot is held (the rest is the held joint's): the heel of a planted toe goes
+with it, within a few frames."""
+
+LOW_FADE = 0.25
+"""While a foot that let go is still within its contact height of the floor, its fade runs
+at this fraction of its speed: the catching up happens in the air, not along the floor."""
+
+REACH_SLACK_M = 0.02
+"""How far a locked ankle may fall short of its target, the leg stretched, before the lock
+lets go (metres): short of full reach the foot slides by at most this much."""
+
+LEGS = tuple(tuple(LOCOMOTION.index(side + name) for name in ("UpLeg", "Leg", "Foot", "ToeBase"))
+             for side in ("Left", "Right"))
+"""Hip, knee, ankle and toe of the left and of the right leg (locomotion skeleton)."""
+
+_FOOT_OF = (0, 0, 1, 1)              # which leg each of FEET belongs to
+assert tuple(j for leg in LEGS for j in leg[2:]) == FEET
+
+
+def _positions(positions, name: str = "positions") -> np.ndarray:
+    """World positions ``(..., frames, 21, 3)`` as float64, finite."""
+    return checks.array(positions, name, (..., "frames", LOCOMOTION.n_joints, 3))
+
+
+def _per_foot_joint(value, name: str, positive: bool = True) -> np.ndarray:
+    """One value, or one per foot joint (4), as a ``(4,)`` array."""
+    v = checks.array(value, name)
+    if v.ndim > 1 or v.size not in (1, len(FEET)) or (positive and not (v > 0).all()):
+        raise ValueError(f"{name}: expected one {'positive ' if positive else ''}number or one per foot joint "
+                         f"({len(FEET)}: ankle and toe, left then right), got {value!r}")
+    return np.broadcast_to(v, (len(FEET),)).astype(np.float64)
+
+
+def planted_heights(positions, percentile: float = 5.0) -> np.ndarray:
+    """How high each ankle and toe sits when planted, metres ``(4,)``: the ``percentile``-th
+    percentile of its height over all frames of ``positions`` ``(..., frames, 21, 3)``
+    (the same as ``metrics.foot_rest_heights``). Measure it on the data, and pass it for a
+    model's samples, so that feet that hover are not credited with a floor of their own."""
+    positions = _positions(positions)
+    return np.percentile(positions[..., FEET, 1].reshape(-1, len(FEET)), percentile, axis=0)
+
+
+# ----------------------------------------------------------------------------------------
+# 1. Contacts from data
+# ----------------------------------------------------------------------------------------
+
+def _hysteresis(low_enter: np.ndarray, low_stay: np.ndarray) -> np.ndarray:
+    """Per frame (axis -2): in contact when ``low_enter``; once in, while ``low_stay``."""
+    out = np.zeros_like(low_enter)
+    state = np.zeros(low_enter.shape[:-2] + low_enter.shape[-1:], dtype=bool)
+    for t in range(low_enter.shape[-2]):
+        state = low_enter[..., t, :] | (state & low_stay[..., t, :])
+        out[..., t, :] = state
+    return out
+
+
+def _majority(labels: np.ndarray, width: int) -> np.ndarray:
+    """A majority filter of ``width`` (odd) frames along axis -2, the edges padded by
+    repeating the first and last label."""
+    if width < 3:
+        return labels
+    half = width // 2
+    padded = np.concatenate([np.repeat(labels[..., :1, :], half, -2), labels,
+                             np.repeat(labels[..., -1:, :], half, -2)], axis=-2).astype(np.int32)
+    sums = np.cumsum(np.concatenate([np.zeros_like(padded[..., :1, :]), padded], axis=-2), axis=-2)
+    return (sums[..., width:, :] - sums[..., :-width, :]) > half
+
+
+def detect(positions, fps: float, planted_height_m=None, height_m=CONTACT_HEIGHT_M,
+           speed_ms: float = CONTACT_SPEED_MS, body_fraction: float = BODY_FRACTION,
+           clean_s: float = CLEAN_S) -> np.ndarray:
+    """Foot contacts: ``(..., frames, 4)`` booleans for the ankles and toes (:data:`FEET`:
+    left ankle, left toe, right ankle, right toe) of ``positions`` ``(..., frames, 21, 3)``.
+
+    A joint enters contact when it is less than ``height_m`` above its planted height and
+    moves horizontally slower than ``speed_ms`` (central differences), and stays in it
+    until it is more than :data:`RELEASE` times either threshold above. The labels are then
+    cleaned by a majority filter over ``clean_s`` seconds (0: none).
+
+    Args:
+        planted_height_m: each joint's planted height (``(4,)`` or one value, metres);
+            default :func:`planted_heights` of ``positions`` (right for data; for a model's
+            samples pass the data's).
+        height_m, speed_ms: the thresholds (:data:`CONTACT_HEIGHT_M`, :data:`CONTACT_SPEED_MS`).
+    """
+    positions = _positions(positions)
+    fps = checks.rate(fps, "fps")
+    if positions.shape[-3] < 2:
+        raise ValueError(f"positions: need at least 2 frames to measure speed, got {positions.shape[-3]}")
+    floor = planted_heights(positions) if planted_height_m is None else \
+        _per_foot_joint(planted_height_m, "planted_height_m", positive=False)
+    height_m = _per_foot_joint(height_m, "height_m")
+    speed_ms = checks.positive(speed_ms, "speed_ms")
+    clean_s = checks.non_negative(clean_s, "clean_s", checks.MAX_SECONDS)
+    feet = positions[..., FEET, :]
+    above = feet[..., 1] - floor
+    speed = np.linalg.norm(np.gradient(feet[..., [0, 2]], axis=-3), axis=-1) * fps
+    hips = np.linalg.norm(np.gradient(positions[..., 0, :][..., [0, 2]], axis=-2), axis=-1) * fps
+    limit = np.maximum(speed_ms, body_fraction * hips)[..., None]
+    labels = _hysteresis((above < height_m) & (speed < limit),
+                         (above < RELEASE * height_m) & (speed < RELEASE * limit))
+    width = 2 * int(round(clean_s * fps / 2)) + 1
+    return _majority(labels, min(width, 2 * ((labels.shape[-2] - 1) // 2) + 1))
+
+
+# ----------------------------------------------------------------------------------------
+# 2. Two-bone IK and the foot lock
+# ----------------------------------------------------------------------------------------
+
+def _unit(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    norm = np.linalg.norm(v, axis=-1, keepdims=True)
+    return v / np.maximum(norm, 1e-12), norm[..., 0]
+
+
+def two_bone_ik(hip, knee, ankle, target, pole_hint=None, reach_slack_m: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Analytic two-bone IK: the knee and ankle that put the ankle on ``target`` with the
+    hip fixed, the thigh and shin keeping the lengths they have in ``hip, knee, ankle``,
+    and the knee in the plane it bent in. All ``(..., 3)``; returns ``(knee, ankle,
+    reached)`` where ``reached`` ``(...)`` is False where the target was more than
+    ``reach_slack_m`` out of reach (the leg then points straight at it, fully stretched).
+
+    The law of cosines gives the angle at the hip, ``cos a = (l1² + d² − l2²) / (2 l1 d)``
+    for the hip-target distance ``d``; the knee lies at ``l1`` from the hip, at angle ``a``
+    from the hip-target line, towards where the knee pointed (``knee`` minus its projection
+    on that line; ``pole_hint`` where the leg was straight, e.g. the foot's direction).
+    """
+    thigh = np.linalg.norm(knee - hip, axis=-1)
+    shin = np.linalg.norm(ankle - knee, axis=-1)
+    direction, distance = _unit(target - hip)
+    lo, hi = np.abs(thigh - shin) + 1e-6, (thigh + shin) * (1 - 1e-6)
+    reached = (distance >= lo - reach_slack_m) & (distance <= hi + reach_slack_m)
+    d = np.clip(distance, lo, hi)
+    pole = knee - hip
+    pole = pole - (pole * direction).sum(-1, keepdims=True) * direction
+    if pole_hint is not None:
+        hint = pole_hint - (pole_hint * direction).sum(-1, keepdims=True) * direction
+        straight = np.linalg.norm(pole, axis=-1, keepdims=True) < 1e-4
+        pole = np.where(straight, hint, pole)
+    pole, _ = _unit(pole)
+    cos_a = np.clip((thigh ** 2 + d ** 2 - shin ** 2) / (2 * thigh * d), -1.0, 1.0)[..., None]
+    new_knee = hip + thigh[..., None] * (cos_a * direction + np.sqrt(1 - cos_a ** 2) * pole)
+    return new_knee, hip + d[..., None] * direction, reached
+
+
+def _smoothstep(x: np.ndarray) -> np.ndarray:
+    x = np.clip(x, 0.0, 1.0)
+    return x * x * (3 - 2 * x)
+
+
+class FootLock:
+    """The foot lock, causal: :meth:`step` takes one frame (of ``batch`` characters) and
+    returns it with the feet locked, using nothing from later frames.
+
+    Per foot it keeps a horizontal offset ``O`` that is added to both the ankle and the
+    toe. While the foot is in contact (its ankle or toe is), ``O`` cancels the horizontal
+    motion of the joints in contact, so they stay where they landed; each joint in contact
+    is also drawn down (or up) to its planted height, over :data:`BLEND_S`. When the
+    contact ends, or the ankle's target leaves the leg's reach, ``O`` and the height
+    corrections fade to zero over :data:`BLEND_S` (smoothstep), so the foot rejoins the
+    motion without a pop. The leg reaches the ankle by :func:`two_bone_ik`; the foot bone
+    then points from the new ankle at the toe's target, its length kept.
+
+    Contacts: pass them to :meth:`step`, or let the lock detect them causally (height
+    above the planted height and backward-difference speed, with hysteresis; no filter,
+    which would need later frames).
+    """
+
+    def __init__(self, fps: float, batch: int = 1, planted_height_m=PLANTED_HEIGHT_M,
+                 height_m=CONTACT_HEIGHT_M, speed_ms: float = CONTACT_SPEED_MS,
+                 body_fraction: float = BODY_FRACTION, blend_s: float = BLEND_S, release_s: float = RELEASE_S):
+        self.fps = checks.rate(fps, "fps")
+        self.batch = checks.whole(batch, "batch")
+        self.floor = _per_foot_joint(planted_height_m, "planted_height_m", positive=False)
+        self.height_m = _per_foot_joint(height_m, "height_m")
+        self.speed_ms = checks.positive(speed_ms, "speed_ms")
+        self.body_fraction = checks.non_negative(body_fraction, "body_fraction", 10.0)
+        self.blend = max(1.0, checks.non_negative(blend_s, "blend_s", checks.MAX_SECONDS) * self.fps)
+        self.release = max(1.0, checks.non_negative(release_s, "release_s", checks.MAX_SECONDS) * self.fps)
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget every foot's state (a new clip starts)."""
+        b = self.batch
+        self.previous = None                               # last raw frame (b, 21, 3)
+        self.contact = np.zeros((b, 4), dtype=bool)        # contact per foot joint, last frame
+        self.locked = np.zeros((b, 2), dtype=bool)         # per foot: the lock holds it
+        self.blocked = np.zeros((b, 2), dtype=bool)        # let go for reach: wait for the contact to end
+        self.offset = np.zeros((b, 4, 2))                  # per foot joint: horizontal offset O (x, z), metres
+        self.lift = np.zeros((b, 2))                       # per foot: height correction, metres
+        self.held = np.zeros((b, 2))                       # per foot: frames held so far
+        self.age = np.full((b, 2), np.inf)                 # per foot: how far its offset has faded, frames
+        self.lift_age = np.full((b, 2), np.inf)            # per foot: frames since it let go (inf: long ago)
+        self.let_go = np.zeros((b, 4, 2))                  # per foot joint: its offset when the foot let go
+        self.lift_from = np.zeros((b, 2))                  # per foot: its lift when it let go
+        self.frames = 0
+        self.locked_frames = 0                             # foot-frames spent locked
+        self.reach_releases = 0                            # locks let go because the leg could not reach
+
+    def _detect(self, frame: np.ndarray) -> np.ndarray:
+        feet = frame[:, FEET]
+        above = feet[..., 1] - self.floor
+        if self.previous is None:
+            speed, limit = np.zeros(above.shape), self.speed_ms
+        else:
+            step = frame[:, [0, *FEET]][..., [0, 2]] - self.previous[:, [0, *FEET]][..., [0, 2]]
+            speed = np.linalg.norm(step, axis=-1) * self.fps                 # (b, hips + 4 feet)
+            speed, limit = speed[:, 1:], np.maximum(self.speed_ms, self.body_fraction * speed[:, :1])
+        enter = (above < self.height_m) & (speed < limit)
+        stay = (above < RELEASE * self.height_m) & (speed < RELEASE * limit)
+        return enter | (self.contact & stay)
+
+    def _contacts(self, contacts, single: bool) -> np.ndarray:
+        contact = np.asarray(contacts)
+        contact = contact[None] if single and contact.ndim == 1 else contact
+        if contact.shape != (self.batch, 4) or contact.dtype != bool:
+            raise ValueError(f"contacts: expected booleans of shape ({self.batch}, 4), got "
+                             f"{contact.dtype} {contact.shape}")
+        return contact
+
+    def step(self, frame, contacts=None) -> np.ndarray:
+        """One frame ``(batch, 21, 3)`` (or ``(21, 3)`` when ``batch`` is 1) in, the same
+        with the feet locked out. ``contacts`` ``(batch, 4)`` booleans (:data:`FEET` order)
+        or None to detect them."""
+        single = np.ndim(frame) == 2
+        frame = checks.array(frame[None] if single else frame, "frame", (self.batch, LOCOMOTION.n_joints, 3))
+        contact = self._detect(frame) if contacts is None else self._contacts(contacts, single)
+        raw = frame[:, FEET]                                                  # (b, 4, 3)
+        moved = np.zeros((self.batch, 4, 2)) if self.previous is None else \
+            raw[..., [0, 2]] - self.previous[:, FEET][..., [0, 2]]
+        in_contact = contact.reshape(-1, 2, 2)                                # (b, feet, ankle/toe)
+        self.blocked &= in_contact.any(-1)                                    # a new contact may lock again
+        active = in_contact.any(-1) & ~self.blocked                           # (b, feet)
+
+        # held: each joint in contact now and a frame ago cancels its own horizontal motion;
+        # a joint of a held foot that is not in contact follows the one that is (its own
+        # difference from it fading), so the foot moves as one
+        holding = (contact & self.contact)[..., None]                         # (b, 4, 1)
+        offset = np.where(holding, self.offset - moved, self.offset)
+        other = offset.reshape(-1, 2, 2, 2)[:, :, ::-1].reshape(-1, 4, 2)     # the foot's other joint
+        follows = (~contact & contact.reshape(-1, 2, 2)[:, :, ::-1].reshape(-1, 4))[..., None]
+        offset = np.where(follows, other + FOLLOW * (offset - other), offset)
+        # ... and its lowest joint in contact is drawn to its planted height, over the blend
+        # (fully while it is lower than its contact height, less and less as it rises to the
+        # release height: a foot lifting off is not held down)
+        heights = raw[..., 1].reshape(-1, 2, 2) - self.floor.reshape(2, 2)
+        lowest = np.where(in_contact, heights, np.inf).argmin(-1)[..., None]            # (b, feet, 1)
+        above = np.take_along_axis(heights, lowest, -1)[..., 0]
+        limit = np.take_along_axis(np.broadcast_to(self.height_m.reshape(2, 2), heights.shape), lowest, -1)[..., 0]
+        above = np.where(in_contact.any(-1), above * np.clip((RELEASE * limit - above) / ((RELEASE - 1) * limit),
+                                                             0.0, 1.0), np.inf)
+        self.held = np.where(active, self.held + 1, 0)
+        ramp = _smoothstep(self.held / self.blend)
+        # let go: both fade from where they were, over the release
+        letting_go = self.locked & ~active
+        joints_go = np.repeat(letting_go, 2, axis=1)
+        self.let_go[joints_go] = self.offset[joints_go]
+        self.lift_from[letting_go] = self.lift[letting_go]
+        # the fade runs at full speed once the foot is clear of the floor, slowly before
+        clear = (heights >= self.height_m.reshape(2, 2)).all(-1)
+        self.age = np.where(active, np.inf, np.where(letting_go, 0, self.age + np.where(clear, 1.0, LOW_FADE)))
+        self.lift_age = np.where(active, np.inf, np.where(letting_go, 0, self.lift_age + 1))
+        fade = 1 - _smoothstep(self.age / self.release)
+        self.offset = np.where(np.repeat(active, 2, axis=1)[..., None], offset,
+                               self.let_go * np.repeat(fade, 2, axis=1)[..., None])
+        self.lift = np.where(active, ramp * np.where(np.isfinite(above), -above, 0.0) + (1 - ramp) * self.lift,
+                             self.lift_from * (1 - _smoothstep(self.lift_age / self.blend)))
+
+        out = frame.copy()
+        for leg, (hip, knee, ankle, toe) in enumerate(LEGS):
+            lift = self.lift[:, leg, None]
+            shift = [np.concatenate([self.offset[:, j, :1], lift, self.offset[:, j, 1:]], -1)
+                     for j in (2 * leg, 2 * leg + 1)]                          # ankle's, toe's (b, 3)
+            hint = frame[:, toe] - frame[:, ankle]
+            foot_length = np.linalg.norm(hint, axis=-1, keepdims=True)
+            ankle_target, toe_target = frame[:, ankle] + shift[0], frame[:, toe] + shift[1]
+            # a toe in contact is where it must be: the ankle goes a foot's length from it
+            toe_held = contact[:, 2 * leg + 1, None] & active[:, leg, None]
+            heel = _unit(ankle_target - toe_target)[0]
+            ankle_target = np.where(toe_held, toe_target + foot_length * heel, ankle_target)
+            new_knee, new_ankle, reached = two_bone_ik(frame[:, hip], frame[:, knee], frame[:, ankle],
+                                                       ankle_target, pole_hint=hint,
+                                                       reach_slack_m=REACH_SLACK_M)
+            lost = active[:, leg] & ~reached
+            if lost.any():                       # out of reach: let go from where the foot got to
+                self.reach_releases += int(lost.sum())
+                self.blocked[lost, leg] = True
+                got = (new_ankle - ankle_target)[lost][:, [0, 2]]
+                for j in (2 * leg, 2 * leg + 1):
+                    self.offset[lost, j] += got
+                    self.let_go[lost, j] = self.offset[lost, j]
+                self.lift_from[lost, leg] = self.lift[lost, leg]
+                self.age[lost, leg] = self.lift_age[lost, leg] = 0
+            aim, norm = _unit(toe_target - new_ankle)
+            aim = np.where(norm[..., None] > 1e-9, aim, _unit(hint)[0])
+            out[:, knee], out[:, ankle], out[:, toe] = new_knee, new_ankle, new_ankle + foot_length * aim
+        self.locked = active & ~self.blocked
+        self.locked_frames += int(self.locked.sum())
+        self.contact = contact
+        self.previous = frame
+        self.frames += 1
+        return out[0] if single else out
+
+
+@dataclass(frozen=True)
+class Locked:
+    """What :func:`lock` did: the locked ``positions`` (input's shape), the ``contacts``
+    used ``(..., frames, 4)``, the share of foot-frames that were locked, and how many
+    locks let go because the ankle's target left the leg's reach (per contact)."""
+
+    positions: np.ndarray
+    contacts: np.ndarray
+    locked_share: float
+    reach_releases: int
+    contacts_started: int
+
+    @property
+    def out_of_reach(self) -> float:
+        """The share of contacts whose lock let go early because the leg could not reach."""
+        return self.reach_releases / max(self.contacts_started, 1)
+
+
+def lock(positions, fps: float, contacts=None, planted_height_m=None, blend_s: float = BLEND_S) -> Locked:
+    """:func:`lock_feet`, and what it did (:class:`Locked`)."""
+    positions = _positions(positions)
+    fps = checks.rate(fps, "fps")
+    frames = positions.shape[-3]
+    blend = checks.non_negative(blend_s, "blend_s", checks.MAX_SECONDS)
+    if frames < max(2, int(np.ceil(blend * fps))):
+        raise ValueError(f"positions: the clip has {frames} frames, fewer than the {blend:g}-s blend "
+                         f"({int(np.ceil(blend * fps))} frames at {fps:g} fps) and at least 2")
+    floor = planted_heights(positions) if planted_height_m is None else \
+        _per_foot_joint(planted_height_m, "planted_height_m", positive=False)
+    if contacts is None:
+        contacts = detect(positions, fps, floor)
+    else:
+        contacts = np.asarray(contacts)
+        if contacts.shape != positions.shape[:-2] + (4,) or contacts.dtype != bool:
+            raise ValueError(f"contacts: expected booleans of shape {positions.shape[:-2] + (4,)} "
+                             f"(frames, then ankle and toe of each foot), got {contacts.dtype} {contacts.shape}")
+    flat = positions.reshape(-1, frames, LOCOMOTION.n_joints, 3)
+    flat_contacts = contacts.reshape(-1, frames, 4)
+    locker = FootLock(fps, len(flat), floor, blend_s=blend)
+    out = np.empty_like(flat)
+    for t in range(frames):
+        out[:, t] = locker.step(flat[:, t], flat_contacts[:, t])
+    foot = flat_contacts.reshape(len(flat), frames, 2, 2).any(-1)
+    started = int((foot[:, 0] | False).sum() + (foot[:, 1:] & ~foot[:, :-1]).sum())
+    return Locked(out.reshape(positions.shape), contacts, locker.locked_frames / (2 * len(flat) * frames),
+                  locker.reach_releases, started)
+
+
+def lock_feet(positions, fps: float, contacts=None, planted_height_m=None) -> np.ndarray:
+    """World positions ``(..., frames, 21, 3)`` with the feet locked while in contact.
+
+    ``contacts`` ``(..., frames, 4)`` (:data:`FEET` order) or None: detected on the motion
+    itself (:func:`detect`, with ``planted_height_m``: the data's planted heights, or
+    default the motion's own). While a foot is in contact it stays where it landed, on the
+    floor; the leg reaches it by two-bone IK; nothing above the hips moves; the lock lets
+    go when the contact ends or the leg cannot reach, blending over :data:`BLEND_S`. The
+    same lock as :class:`FootLock` (causal) run over the clip, given the offline labels.
+    """
+    return lock(positions, fps, contacts, planted_height_m).positions
+
+
+# ----------------------------------------------------------------------------------------
+# 3. Bones that keep their length
+# ----------------------------------------------------------------------------------------
+
+def fit_bones(positions, lengths=None, keep_feet: bool = True, skeleton: Skeleton = LOCOMOTION) -> np.ndarray:
+    """``positions`` ``(..., frames, joints, 3)`` put back onto a skeleton whose bones keep
+    one length: walking down the tree from the root (which stays), each joint is placed at
+    its bone's length from its (already placed) parent, along the bone's direction in
+    ``positions``.
+
+    ``lengths``: ``(joints - 1,)`` in ``skeleton.bones`` order, metres; default each
+    bone's median length over the frames of each clip (so a body keeps its own size, and
+    its bones stop stretching). Pass the data's to give every sample the data's body.
+
+    ``keep_feet`` (locomotion skeleton only): the legs are not walked down but reach the
+    ankles where the motion had them, by :func:`two_bone_ik` (knee in the plane it bent in),
+    and the foot points at the motion's toe. Rescaling a leg bone by bone would move the
+    feet by the stretch of every bone above them, frame by frame: new sliding."""
+    positions = checks.array(positions, "positions", (..., "frames", skeleton.n_joints, 3))
+    bones = skeleton.bones
+    if lengths is None:
+        lengths = np.median(skeleton.bone_lengths(positions), axis=-2, keepdims=True)   # (..., 1, bones)
+    else:
+        lengths = checks.array(lengths, "lengths", (len(bones),))
+        if not (lengths > 0).all():
+            raise ValueError("lengths: every bone length must be > 0")
+    out = positions.copy()
+    for k, (parent, child) in enumerate(bones):
+        direction, _ = _unit(positions[..., child, :] - positions[..., parent, :])
+        out[..., child, :] = out[..., parent, :] + lengths[..., k, None] * direction
+    if keep_feet and skeleton.names == LOCOMOTION.names:
+        for hip, knee, ankle, toe in LEGS:
+            out[..., knee, :], out[..., ankle, :], _ = two_bone_ik(
+                out[..., hip, :], out[..., knee, :], out[..., ankle, :], positions[..., ankle, :],
+                pole_hint=positions[..., toe, :] - positions[..., ankle, :])
+            aim, _ = _unit(positions[..., toe, :] - out[..., ankle, :])
+            out[..., toe, :] = out[..., ankle, :] + lengths[..., bones.index((ankle, toe)), None] * aim
+    return out
+
+
+# ----------------------------------------------------------------------------------------
+# 4. A training term: planted feet's world velocity, from features (HuMoR, EDGE, MDM)
+# ----------------------------------------------------------------------------------------
+
+def foot_velocity(features, fps: float):
+    """Horizontal world velocity of the ankles and toes, m/s, from features in data units
+    (``(..., frames, 66)``, a torch tensor, differentiable): ``(..., frames - 1, 4, 2)``,
+    ``(x, z)`` in the axes of frame ``t``'s root.
+
+    A foot at root-local ``p_t`` is at ``R(θ) p_{t+1} + s_t`` a frame later, seen from
+    frame ``t``'s root: the root turned by ``θ = turning / fps`` and stepped by
+    ``s_t = (sideways, forward) / fps`` (the control of frame ``t``). So its velocity is
+    ``(R(θ) p_{t+1} + s_t − p_t) · fps``: what a planted foot must keep at zero, and what the
+    root-local pose alone cannot see."""
+    import torch
+    fps = checks.rate(fps, "fps")
+    if not isinstance(features, torch.Tensor) or features.shape[-1] != 3 * LOCOMOTION.n_joints + 3 \
+            or features.ndim < 2 or features.shape[-2] < 2:
+        raise ValueError(f"features: expected a tensor (..., frames >= 2, {3 * LOCOMOTION.n_joints + 3}), "
+                         f"got {type(features).__name__} {tuple(getattr(features, 'shape', ()))}")
+    n_pose = 3 * LOCOMOTION.n_joints
+    pose = features[..., :n_pose].unflatten(-1, (LOCOMOTION.n_joints, 3))[..., FEET, :]
+    x, z = pose[..., 0], pose[..., 2]                                     # (..., frames, 4)
+    control = features[..., :-1, n_pose:]
+    theta = (control[..., 2] / fps)[..., None]
+    c, s = torch.cos(theta), torch.sin(theta)
+    x1, z1 = x[..., 1:, :], z[..., 1:, :]
+    vx = (c * x1 + s * z1 + control[..., 1:2] / fps - x[..., :-1, :]) * fps
+    vz = (-s * x1 + c * z1 + control[..., 0:1] / fps - z[..., :-1, :]) * fps
+    return torch.stack([vx, vz], dim=-1)
+
+
+def contact_labels(features, fps: float, planted_height_m=PLANTED_HEIGHT_M, height_m=CONTACT_HEIGHT_M,
+                   speed_ms: float = CONTACT_SPEED_MS):
+    """Contact labels of *data* features (a torch tensor ``(..., frames, 66)``, data units)
+    for the training term: ``(..., frames - 1, 4)`` floats, 1 where an ankle / toe is below
+    its contact height above ``planted_height_m`` in frames ``t`` and ``t + 1`` and moves
+    slower than ``speed_ms`` (:func:`foot_velocity`). The per-frame rule of :func:`detect`,
+    without its hysteresis and filter (data's contacts are clean)."""
+    import torch
+    fps = checks.rate(fps, "fps")
+    floor = torch.as_tensor(_per_foot_joint(planted_height_m, "planted_height_m", positive=False),
+                            dtype=features.dtype, device=features.device)
+    limit = torch.as_tensor(_per_foot_joint(height_m, "height_m"), dtype=features.dtype, device=features.device)
+    n_pose = 3 * LOCOMOTION.n_joints
+    height = features[..., :n_pose].unflatten(-1, (LOCOMOTION.n_joints, 3))[..., FEET, 1] - floor
+    low = height < limit
+    slow = foot_velocity(features, fps).norm(dim=-1) < checks.positive(speed_ms, "speed_ms")
+    return (low[..., 1:, :] & low[..., :-1, :] & slow).to(features.dtype)
