@@ -18,7 +18,9 @@ targets are reported, not required.
 Both use the measures of ``motionlab.metrics`` and the claim checks of ``motionlab.claims``
 (targets fixed there). Rows for trivial baselines (the mean pose moved along the true path,
 a constant pose) show what failing looks like. Tables: (1) motion like the data: stepping,
-leg swing, ankle height, foot skating, bone drift; (2) the conv autoencoder against trivial
+leg swing, ankle height, foot skating, bone drift, each generative model raw and "with feet
+locked" (bones put back to their lengths, feet locked: ``motionlab.contacts.finish``;
+``benchmarks/feet.py`` has every measure of it); (2) the conv autoencoder against trivial
 reconstructions; (3) the VAE's samples and latent axes; (4) the VAE-LSTM steered, second by
 second (built-in: 10 s along walked paths at walking and running speed; real data: each
 test clip of 3 s or more, by its own control); (5) MoGlow steered along the preset paths
@@ -41,7 +43,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from motionlab import claims, comparison, data, experiments, metrics, pretrained, training
+from motionlab import claims, comparison, contacts, data, experiments, metrics, pretrained, training
 from motionlab import train as cli
 from motionlab.models.vae import axis_effects
 from motionlab.representation import to_positions
@@ -69,10 +71,14 @@ VAE = (["--normalization", "shared_pose", "--lr", "1e-3", "--set", "latent=16", 
 VAE_LSTM = (["--lr", "3e-3", "--set", "observation_std=3.0"], 20)
 
 
-def report_row(name: str, features: np.ndarray, rest) -> None:
+def report_row(name: str, features: np.ndarray, rest, finished: bool = False) -> None:
+    """One row of table 1; with ``finished`` a second row for the same motion with its bones
+    put back to their lengths and its feet locked (``contacts.finish``)."""
     r = metrics.locomotion_report(features, FPS, rest)
     print(f"| {name} | {r['stepping (m/s)']:.2f} | {100 * r['leg swing (m)']:.1f} | {100 * r['ankle height (m)']:.1f} "
           f"| {100 * r['foot skating (m/s)']:.2f} | {100 * r['bone drift']:.2f} |")
+    if finished:
+        report_row(f"{name}, with feet locked", contacts.finish(features, FPS, planted_height_m=rest).features, rest)
 
 
 def verdict_line(verdict) -> str:
@@ -152,10 +158,10 @@ def main(argv: list[str] | None = None) -> None:
     samples = None
     if vae is not None:
         samples = vae.generate(n=64, seed=0).features
-        report_row("Motegi VAE, samples from the prior", samples, rest)
+        report_row("Motegi VAE, samples from the prior", samples, rest, finished=True)
     if vae_lstm is not None:
         steered = vae_lstm.generate(truth[..., metrics.N_POSE:], n=len(truth), seed=0).features
-        report_row("Habibie VAE-LSTM, given the test control", steered, rest)
+        report_row("Habibie VAE-LSTM, given the test control", steered, rest, finished=True)
 
     print("\n## 2. Conv autoencoder against trivial reconstructions\n")
     if conv_ae is not None:

@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
-from . import data, experiments, metrics, pretrained, synthetic
+from . import contacts, data, experiments, metrics, pretrained, synthetic
 from .models.moglow import MoGlowConfig
 from .representation import N_POSE, to_positions
 
@@ -145,7 +145,12 @@ def _nll(model, windows: np.ndarray) -> tuple[float, str]:
     return float("nan"), ""
 
 
-def table_rows(models: dict, windows: np.ndarray, seed: int = 0) -> dict[str, dict[str, float]]:
+FINISHED = " + lock"
+"""Suffix of a model's finished row: its samples with every bone back to one length and the
+feet locked (:func:`motionlab.contacts.finish`), what a character would show."""
+
+
+def table_rows(models: dict, windows: np.ndarray, seed: int = 0, finish: bool = True) -> dict[str, dict[str, float]]:
     """The comparison table on held-out windows ``(n, TEST_WINDOW, 66)`` (data units).
 
     Every model generates one sample per window: a model with a prefix continues the
@@ -156,16 +161,23 @@ def table_rows(models: dict, windows: np.ndarray, seed: int = 0) -> dict[str, di
     data's planted foot heights), ``pose error 1 s (cm)`` and ``pose error 3 s (cm)``
     (root frame, :func:`metrics.errors_by_frame`; NaN for a model that sees neither control
     nor prefix), ``test NLL (bits/frame)`` and ``test NLL is`` (what it is: see :func:`_nll`),
-    ``parameters`` and ``training (min)`` of the shipped checkpoint. The data's own row
-    comes first."""
+    ``parameters`` and ``training (min)`` of the shipped checkpoint, ``skating ratio``
+    (:func:`metrics.skating_ratio`, GMD's) and ``foot acceleration (m/s²)`` (99th
+    percentile). The data's own row comes first. With ``finish``, each model's row is
+    followed by its finished row (label + :data:`FINISHED`): the same samples through
+    :func:`motionlab.contacts.finish` (bones, then feet locked; the same measures, and
+    ``out of reach``: the share of contacts the lock let go for reach)."""
     windows = np.asarray(windows, dtype=np.float64)
     judged = windows[:, PREFIX_FRAMES:]
     rest = metrics.foot_rest_heights(to_positions(judged, FPS))
 
     def row(features) -> dict[str, float]:
         r = metrics.locomotion_report(features, FPS, rest)
+        positions = to_positions(features, FPS)
         return {"stepping (m/s)": r["stepping (m/s)"], "leg swing (cm)": 100 * r["leg swing (m)"],
-                "foot skating (cm/s)": 100 * r["foot skating (m/s)"], "bone drift (%)": 100 * r["bone drift"]}
+                "foot skating (cm/s)": 100 * r["foot skating (m/s)"], "bone drift (%)": 100 * r["bone drift"],
+                "skating ratio": metrics.skating_ratio(positions, FPS, rest),
+                "foot acceleration (m/s²)": metrics.foot_acceleration(positions, FPS)}
 
     rows = {"data": {**row(judged), "pose error 1 s (cm)": 0.0, "pose error 3 s (cm)": 0.0}}
     for label, out in held_out_samples(models, windows, seed).items():
@@ -178,6 +190,9 @@ def table_rows(models: dict, windows: np.ndarray, seed: int = 0) -> dict[str, di
                        **dict(zip(("test NLL (bits/frame)", "test NLL is"), _nll(model, windows))),
                        "parameters": float(weights(model)),
                        "training (min)": _training_minutes(model)}
+        if finish:
+            done = contacts.finish(out, FPS, planted_height_m=rest)
+            rows[label + FINISHED] = {**row(done.features), "out of reach": done.lock.out_of_reach}
     return rows
 
 
@@ -336,18 +351,22 @@ def table(models: dict, rows: dict, long: dict, speed: dict, data_label: str = "
     """The comparison as one Markdown table, the data's row first (``data_label`` says
     which windows): :func:`table_rows`, the last 5 s of :func:`long_run` (pose spread
     against the data's: the built-in bodies on the same circle, hence 1 in the data's row;
-    diversity of the samples, :func:`late_diversity`) and :func:`generation_speed`."""
+    diversity of the samples, :func:`late_diversity`) and :func:`generation_speed`. A
+    finished row (:data:`FINISHED`) fills only the measured columns."""
     late_data = long["data"]["pose spread (m)"][-1]
     lines = ["| | conditions on | weights | training (min) | test NLL (bits/frame) | pose error 1 s / 3 s (cm) "
-             "| stepping (m/s) | leg swing (cm) | foot skating (cm/s) | bone drift (%) "
+             "| stepping (m/s) | leg swing (cm) | foot skating (cm/s) | skating ratio (GMD) | bone drift (%) "
              "| 30-s run: pose spread, last 5 s / data's | 30-s run: diversity, last 5 s (cm) "
              "| frames/s, 1 stream | frames/s, 64 streams |",
-             "|" + "---|" * 14]
+             "|" + "---|" * 15]
     for label, r in rows.items():
         measured = (f"| {r['stepping (m/s)']:.2f} | {r['leg swing (cm)']:.1f} | {r['foot skating (cm/s)']:.1f} "
-                    f"| {r['bone drift (%)']:.2f} ")
+                    f"| {r['skating ratio']:.3f} | {r['bone drift (%)']:.2f} ")
         if label == "data":
             lines.append(f"| **data** ({data_label}) | | | | | {measured}| 1 | {late_diversity(long['data']):.1f} | | |")
+            continue
+        if label.endswith(FINISHED):
+            lines.append(f"| {label} | | | | | {measured}| | | | |")
             continue
         entry = models[label][0]
         spread = long[label]["pose spread (m)"][-1] / late_data if label in long else None

@@ -33,6 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import checks
+from .representation import along_path, to_positions
 from .skeleton import FEET, LOCOMOTION, Skeleton
 
 # ----------------------------------------------------------------------------------------
@@ -87,15 +88,18 @@ LOW_FADE = 0.25
 """While a foot that let go is still within its contact height of the floor, its fade runs
 at this fraction of its speed: the catching up happens in the air, not along the floor."""
 
+PIVOT_BEND = 0.01
+"""A foot that pivots on its toe leaves its leg this fraction short of straight, so that
+the knee keeps a direction to bend in."""
+
 REACH_SLACK_M = 0.02
-"""How far a locked ankle may fall short of its target, the leg stretched, before the lock
-lets go (metres): short of full reach the foot slides by at most this much."""
+"""How far a locked ankle may fall short of its target, the leg stretched (after pivoting),
+before the lock lets go (metres): short of full reach the foot slides by at most this much."""
 
 LEGS = tuple(tuple(LOCOMOTION.index(side + name) for name in ("UpLeg", "Leg", "Foot", "ToeBase"))
              for side in ("Left", "Right"))
 """Hip, knee, ankle and toe of the left and of the right leg (locomotion skeleton)."""
 
-_FOOT_OF = (0, 0, 1, 1)              # which leg each of FEET belongs to
 assert tuple(j for leg in LEGS for j in leg[2:]) == FEET
 
 
@@ -224,6 +228,18 @@ def two_bone_ik(hip, knee, ankle, target, pole_hint=None, reach_slack_m: float =
     return new_knee, hip + d[..., None] * direction, reached
 
 
+def _pivot(hip, toe, reach, foot, near) -> np.ndarray:
+    """Where an ankle can be, ``reach`` from the ``hip`` and ``foot`` from the ``toe``
+    (the circle where two spheres meet), on the side of ``near``: ``(n, 3)``. Where the
+    spheres do not meet, the point on the hip-toe line at ``reach`` (out of reach)."""
+    u, d = _unit(toe - hip)
+    x = np.clip((d ** 2 + reach ** 2 - foot ** 2) / (2 * np.maximum(d, 1e-9)), -reach, reach)
+    r = np.sqrt(np.maximum(reach ** 2 - x ** 2, 0.0))
+    w = near - hip
+    w, _ = _unit(w - (w * u).sum(-1, keepdims=True) * u)
+    return hip + x[:, None] * u + r[:, None] * w
+
+
 def _smoothstep(x: np.ndarray) -> np.ndarray:
     x = np.clip(x, 0.0, 1.0)
     return x * x * (3 - 2 * x)
@@ -233,14 +249,20 @@ class FootLock:
     """The foot lock, causal: :meth:`step` takes one frame (of ``batch`` characters) and
     returns it with the feet locked, using nothing from later frames.
 
-    Per foot it keeps a horizontal offset ``O`` that is added to both the ankle and the
-    toe. While the foot is in contact (its ankle or toe is), ``O`` cancels the horizontal
-    motion of the joints in contact, so they stay where they landed; each joint in contact
-    is also drawn down (or up) to its planted height, over :data:`BLEND_S`. When the
-    contact ends, or the ankle's target leaves the leg's reach, ``O`` and the height
-    corrections fade to zero over :data:`BLEND_S` (smoothstep), so the foot rejoins the
-    motion without a pop. The leg reaches the ankle by :func:`two_bone_ik`; the foot bone
-    then points from the new ankle at the toe's target, its length kept.
+    * **Holding.** Each foot joint (ankle, toe) carries a horizontal offset ``O`` added to
+      its position. While a joint is in contact, ``O`` cancels its horizontal motion, so it
+      stays where it landed; the other joint of a held foot follows it (:data:`FOLLOW`),
+      so the foot moves as one. The foot's lowest joint in contact is drawn onto its
+      planted height over :data:`BLEND_S` (less as it rises towards the release height).
+    * **The leg.** The ankle reaches its target by :func:`two_bone_ik` (hip fixed, the
+      leg's own bone lengths, knee in its plane); a held toe fixes the ankle at a foot's
+      length from it; beyond the leg's reach the heel rises and the foot pivots on its toe
+      (:func:`_pivot`), as a walker's does at toe-off. The foot bone then points from the
+      new ankle at the toe's target, its length kept. Only the knee, ankle and toe move.
+    * **Letting go.** When the contact ends (or, rarely, even the pivot cannot reach),
+      ``O`` fades to zero over :data:`RELEASE_S` (slowed by :data:`LOW_FADE` while the
+      foot is still near the floor) and the height correction over :data:`BLEND_S`:
+      smoothsteps, so the foot rejoins the motion without a pop.
 
     Contacts: pass them to :meth:`step`, or let the lock detect them causally (height
     above the planted height and backward-difference speed, with hysteresis; no filter,
@@ -277,6 +299,7 @@ class FootLock:
         self.frames = 0
         self.locked_frames = 0                             # foot-frames spent locked
         self.reach_releases = 0                            # locks let go because the leg could not reach
+        self.pivot_frames = 0                              # foot-frames held by pivoting on the toe
 
     def _detect(self, frame: np.ndarray) -> np.ndarray:
         feet = frame[:, FEET]
@@ -306,75 +329,14 @@ class FootLock:
         single = np.ndim(frame) == 2
         frame = checks.array(frame[None] if single else frame, "frame", (self.batch, LOCOMOTION.n_joints, 3))
         contact = self._detect(frame) if contacts is None else self._contacts(contacts, single)
-        raw = frame[:, FEET]                                                  # (b, 4, 3)
-        moved = np.zeros((self.batch, 4, 2)) if self.previous is None else \
-            raw[..., [0, 2]] - self.previous[:, FEET][..., [0, 2]]
         in_contact = contact.reshape(-1, 2, 2)                                # (b, feet, ankle/toe)
         self.blocked &= in_contact.any(-1)                                    # a new contact may lock again
         active = in_contact.any(-1) & ~self.blocked                           # (b, feet)
-
-        # held: each joint in contact now and a frame ago cancels its own horizontal motion;
-        # a joint of a held foot that is not in contact follows the one that is (its own
-        # difference from it fading), so the foot moves as one
-        holding = (contact & self.contact)[..., None]                         # (b, 4, 1)
-        offset = np.where(holding, self.offset - moved, self.offset)
-        other = offset.reshape(-1, 2, 2, 2)[:, :, ::-1].reshape(-1, 4, 2)     # the foot's other joint
-        follows = (~contact & contact.reshape(-1, 2, 2)[:, :, ::-1].reshape(-1, 4))[..., None]
-        offset = np.where(follows, other + FOLLOW * (offset - other), offset)
-        # ... and its lowest joint in contact is drawn to its planted height, over the blend
-        # (fully while it is lower than its contact height, less and less as it rises to the
-        # release height: a foot lifting off is not held down)
-        heights = raw[..., 1].reshape(-1, 2, 2) - self.floor.reshape(2, 2)
-        lowest = np.where(in_contact, heights, np.inf).argmin(-1)[..., None]            # (b, feet, 1)
-        above = np.take_along_axis(heights, lowest, -1)[..., 0]
-        limit = np.take_along_axis(np.broadcast_to(self.height_m.reshape(2, 2), heights.shape), lowest, -1)[..., 0]
-        above = np.where(in_contact.any(-1), above * np.clip((RELEASE * limit - above) / ((RELEASE - 1) * limit),
-                                                             0.0, 1.0), np.inf)
-        self.held = np.where(active, self.held + 1, 0)
-        ramp = _smoothstep(self.held / self.blend)
-        # let go: both fade from where they were, over the release
-        letting_go = self.locked & ~active
-        joints_go = np.repeat(letting_go, 2, axis=1)
-        self.let_go[joints_go] = self.offset[joints_go]
-        self.lift_from[letting_go] = self.lift[letting_go]
-        # the fade runs at full speed once the foot is clear of the floor, slowly before
-        clear = (heights >= self.height_m.reshape(2, 2)).all(-1)
-        self.age = np.where(active, np.inf, np.where(letting_go, 0, self.age + np.where(clear, 1.0, LOW_FADE)))
-        self.lift_age = np.where(active, np.inf, np.where(letting_go, 0, self.lift_age + 1))
-        fade = 1 - _smoothstep(self.age / self.release)
-        self.offset = np.where(np.repeat(active, 2, axis=1)[..., None], offset,
-                               self.let_go * np.repeat(fade, 2, axis=1)[..., None])
-        self.lift = np.where(active, ramp * np.where(np.isfinite(above), -above, 0.0) + (1 - ramp) * self.lift,
-                             self.lift_from * (1 - _smoothstep(self.lift_age / self.blend)))
-
+        raw = frame[:, FEET]                                                  # (b, 4, 3)
+        self._hold_and_let_go(raw, contact, active)
         out = frame.copy()
-        for leg, (hip, knee, ankle, toe) in enumerate(LEGS):
-            lift = self.lift[:, leg, None]
-            shift = [np.concatenate([self.offset[:, j, :1], lift, self.offset[:, j, 1:]], -1)
-                     for j in (2 * leg, 2 * leg + 1)]                          # ankle's, toe's (b, 3)
-            hint = frame[:, toe] - frame[:, ankle]
-            foot_length = np.linalg.norm(hint, axis=-1, keepdims=True)
-            ankle_target, toe_target = frame[:, ankle] + shift[0], frame[:, toe] + shift[1]
-            # a toe in contact is where it must be: the ankle goes a foot's length from it
-            toe_held = contact[:, 2 * leg + 1, None] & active[:, leg, None]
-            heel = _unit(ankle_target - toe_target)[0]
-            ankle_target = np.where(toe_held, toe_target + foot_length * heel, ankle_target)
-            new_knee, new_ankle, reached = two_bone_ik(frame[:, hip], frame[:, knee], frame[:, ankle],
-                                                       ankle_target, pole_hint=hint,
-                                                       reach_slack_m=REACH_SLACK_M)
-            lost = active[:, leg] & ~reached
-            if lost.any():                       # out of reach: let go from where the foot got to
-                self.reach_releases += int(lost.sum())
-                self.blocked[lost, leg] = True
-                got = (new_ankle - ankle_target)[lost][:, [0, 2]]
-                for j in (2 * leg, 2 * leg + 1):
-                    self.offset[lost, j] += got
-                    self.let_go[lost, j] = self.offset[lost, j]
-                self.lift_from[lost, leg] = self.lift[lost, leg]
-                self.age[lost, leg] = self.lift_age[lost, leg] = 0
-            aim, norm = _unit(toe_target - new_ankle)
-            aim = np.where(norm[..., None] > 1e-9, aim, _unit(hint)[0])
-            out[:, knee], out[:, ankle], out[:, toe] = new_knee, new_ankle, new_ankle + foot_length * aim
+        for leg in range(2):
+            self._leg(frame, out, leg, contact, active)
         self.locked = active & ~self.blocked
         self.locked_frames += int(self.locked.sum())
         self.contact = contact
@@ -382,18 +344,93 @@ class FootLock:
         self.frames += 1
         return out[0] if single else out
 
+    def _hold_and_let_go(self, raw: np.ndarray, contact: np.ndarray, active: np.ndarray) -> None:
+        """The feet's offsets ``O`` and height corrections for this frame (see the class)."""
+        moved = np.zeros((self.batch, 4, 2)) if self.previous is None else \
+            raw[..., [0, 2]] - self.previous[:, FEET][..., [0, 2]]
+        in_contact = contact.reshape(-1, 2, 2)
+        # held: each joint in contact now and a frame ago cancels its own horizontal motion;
+        # a joint of a held foot that is not in contact follows the one that is
+        holding = (contact & self.contact)[..., None]                         # (b, 4, 1)
+        offset = np.where(holding, self.offset - moved, self.offset)
+        other = offset.reshape(-1, 2, 2, 2)[:, :, ::-1].reshape(-1, 4, 2)     # the foot's other joint
+        follows = (~contact & in_contact[:, :, ::-1].reshape(-1, 4))[..., None]
+        offset = np.where(follows, other + FOLLOW * (offset - other), offset)
+        # the lowest joint in contact is drawn to its planted height: fully while lower than
+        # its contact height, less and less up to the release height (a foot lifting off is
+        # not held down)
+        heights = raw[..., 1].reshape(-1, 2, 2) - self.floor.reshape(2, 2)
+        lowest = np.where(in_contact, heights, np.inf).argmin(-1)[..., None]            # (b, feet, 1)
+        above = np.take_along_axis(heights, lowest, -1)[..., 0]
+        limit = np.take_along_axis(np.broadcast_to(self.height_m.reshape(2, 2), heights.shape), lowest, -1)[..., 0]
+        drop = -above * np.clip((RELEASE * limit - above) / ((RELEASE - 1) * limit), 0.0, 1.0)
+        self.held = np.where(active, self.held + 1, 0)
+        ramp = _smoothstep(self.held / self.blend)
+        # let go: both fade from where they were; the offset more slowly near the floor
+        letting_go = self.locked & ~active
+        joints_go = np.repeat(letting_go, 2, axis=1)
+        self.let_go[joints_go] = self.offset[joints_go]
+        self.lift_from[letting_go] = self.lift[letting_go]
+        clear = (heights >= self.height_m.reshape(2, 2)).all(-1)
+        self.age = np.where(active, np.inf, np.where(letting_go, 0, self.age + np.where(clear, 1.0, LOW_FADE)))
+        self.lift_age = np.where(active, np.inf, np.where(letting_go, 0, self.lift_age + 1))
+        fade = 1 - _smoothstep(self.age / self.release)
+        self.offset = np.where(np.repeat(active, 2, axis=1)[..., None], offset,
+                               self.let_go * np.repeat(fade, 2, axis=1)[..., None])
+        self.lift = np.where(active, ramp * drop + (1 - ramp) * self.lift,
+                             self.lift_from * (1 - _smoothstep(self.lift_age / self.blend)))
+
+    def _leg(self, frame: np.ndarray, out: np.ndarray, leg: int, contact: np.ndarray, active: np.ndarray) -> None:
+        """Write leg ``leg``'s knee, ankle and toe into ``out``: IK to the ankle's target,
+        the heel raised to pivot on a held toe beyond reach, the foot aimed at the toe."""
+        hip, knee, ankle, toe = LEGS[leg]
+        shift = [np.concatenate([self.offset[:, j, :1], self.lift[:, leg, None], self.offset[:, j, 1:]], -1)
+                 for j in (2 * leg, 2 * leg + 1)]                              # ankle's, toe's (b, 3)
+        hint = frame[:, toe] - frame[:, ankle]
+        foot_length = np.linalg.norm(hint, axis=-1, keepdims=True)
+        ankle_target, toe_target = frame[:, ankle] + shift[0], frame[:, toe] + shift[1]
+        toe_held = contact[:, 2 * leg + 1, None] & active[:, leg, None]      # the ankle a foot from it
+        ankle_target = np.where(toe_held, toe_target + foot_length * _unit(ankle_target - toe_target)[0],
+                                ankle_target)
+        reach = (np.linalg.norm(frame[:, knee] - frame[:, hip], axis=-1)
+                 + np.linalg.norm(frame[:, ankle] - frame[:, knee], axis=-1)) * (1 - PIVOT_BEND)
+        far = active[:, leg] & (np.linalg.norm(ankle_target - frame[:, hip], axis=-1) > reach)
+        if far.any():                                                         # pivot on the toe
+            self.pivot_frames += int(far.sum())
+            ankle_target[far] = _pivot(frame[far, hip], toe_target[far], reach[far], foot_length[far, 0],
+                                       ankle_target[far])
+        new_knee, new_ankle, reached = two_bone_ik(frame[:, hip], frame[:, knee], frame[:, ankle], ankle_target,
+                                                   pole_hint=hint, reach_slack_m=REACH_SLACK_M)
+        lost = active[:, leg] & ~reached
+        if lost.any():                           # out of reach: let go from where the foot got to
+            self.reach_releases += int(lost.sum())
+            self.blocked[lost, leg] = True
+            got = (new_ankle - ankle_target)[lost][:, [0, 2]]
+            for j in (2 * leg, 2 * leg + 1):
+                self.offset[lost, j] += got
+                self.let_go[lost, j] = self.offset[lost, j]
+            self.lift_from[lost, leg] = self.lift[lost, leg]
+            self.age[lost, leg] = self.lift_age[lost, leg] = 0
+        aim, norm = _unit(toe_target - new_ankle)
+        aim = np.where(norm[..., None] > 1e-9, aim, _unit(hint)[0])
+        touched = ((shift[0] != 0) | (shift[1] != 0)).any(-1)                 # untouched legs stay exact
+        out[touched, knee], out[touched, ankle] = new_knee[touched], new_ankle[touched]
+        out[touched, toe] = (new_ankle + foot_length * aim)[touched]
+
 
 @dataclass(frozen=True)
 class Locked:
     """What :func:`lock` did: the locked ``positions`` (input's shape), the ``contacts``
-    used ``(..., frames, 4)``, the share of foot-frames that were locked, and how many
-    locks let go because the ankle's target left the leg's reach (per contact)."""
+    used ``(..., frames, 4)``, the share of foot-frames that were locked, how many locks
+    let go because even a foot pivoting on its toe was out of the leg's reach, how many
+    contacts began, and the share of locked foot-frames that pivoted on the toe."""
 
     positions: np.ndarray
     contacts: np.ndarray
     locked_share: float
     reach_releases: int
     contacts_started: int
+    pivot_share: float = 0.0
 
     @property
     def out_of_reach(self) -> float:
@@ -428,7 +465,7 @@ def lock(positions, fps: float, contacts=None, planted_height_m=None, blend_s: f
     foot = flat_contacts.reshape(len(flat), frames, 2, 2).any(-1)
     started = int((foot[:, 0] | False).sum() + (foot[:, 1:] & ~foot[:, :-1]).sum())
     return Locked(out.reshape(positions.shape), contacts, locker.locked_frames / (2 * len(flat) * frames),
-                  locker.reach_releases, started)
+                  locker.reach_releases, started, locker.pivot_frames / max(locker.locked_frames, 1))
 
 
 def lock_feet(positions, fps: float, contacts=None, planted_height_m=None) -> np.ndarray:
@@ -482,6 +519,37 @@ def fit_bones(positions, lengths=None, keep_feet: bool = True, skeleton: Skeleto
             aim, _ = _unit(positions[..., toe, :] - out[..., ankle, :])
             out[..., toe, :] = out[..., ankle, :] + lengths[..., bones.index((ankle, toe)), None] * aim
     return out
+
+
+# ----------------------------------------------------------------------------------------
+# From a model's features to a character: bones, then feet
+# ----------------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class Finished:
+    """What :func:`finish` made: ``features`` ``(..., frames, 66)`` on the input's own root
+    path (measure them as the raw ones), the world ``positions`` ``(..., frames, 21, 3)``,
+    and ``lock`` (:class:`Locked`, or None when the feet were not locked)."""
+
+    features: np.ndarray
+    positions: np.ndarray
+    lock: Locked | None
+
+
+def finish(features, fps: float, planted_height_m=None, fit: bool = True, lock_feet: bool = True) -> Finished:
+    """A model's features ``(..., frames, 66)`` (data units) made into a character: world
+    positions (:func:`representation.to_positions`), every bone back to one length
+    (:func:`fit_bones`, feet kept where they were), then the feet locked (:func:`lock`,
+    contacts detected with the data's ``planted_height_m``). The root path is not touched,
+    so the finished features follow the same control."""
+    features = checks.array(features, "features", (..., "frames", 3 * LOCOMOTION.n_joints + 3))
+    fps = checks.rate(fps, "fps")
+    positions = to_positions(features, fps)
+    if fit:
+        positions = fit_bones(positions)
+    locked = lock(positions, fps, planted_height_m=planted_height_m) if lock_feet else None
+    positions = locked.positions if locked is not None else positions
+    return Finished(along_path(positions, features[..., -3:], fps), positions, locked)
 
 
 # ----------------------------------------------------------------------------------------

@@ -171,6 +171,31 @@ def to_positions(features: np.ndarray, fps: float, start: np.ndarray | None = No
     return np.einsum("fab,fjb->fja", y_rotation(root[:, 2]), pose) + origin[:, None]
 
 
+def along_path(positions: np.ndarray, control: np.ndarray, fps: float, start: np.ndarray | None = None,
+               skeleton: Skeleton = LOCOMOTION) -> np.ndarray:
+    """World positions ``(..., frames, joints, 3)`` -> features ``(..., frames, 3 * joints + 3)``
+    on a *given* root path: the root frames integrated from ``control`` ``(..., frames, 3)``
+    (from ``start``, as :func:`to_positions` does), each pose placed in its own. The inverse
+    of :func:`to_positions` for the same control: ``along_path(to_positions(f), f[..., -3:])``
+    gives ``f`` back. Use it for motion edited in the world (feet locked) whose root moved
+    along the same path, so that it is measured in the same root frames as before."""
+    n_pose = 3 * skeleton.n_joints
+    positions = checks.array(positions, "positions", (..., "frames", skeleton.n_joints, 3))
+    control = checks.array(control, "control", (..., "frames", 3))
+    if control.shape[:-1] != positions.shape[:-2]:
+        raise ValueError(f"control: expected {positions.shape[:-2] + (3,)} for positions {positions.shape}, "
+                         f"got {control.shape}")
+    fps = checks.rate(fps, "fps")
+    flat_p, flat_c = positions.reshape(-1, *positions.shape[-3:]), control.reshape(-1, *control.shape[-2:])
+    out = np.empty(flat_c.shape[:-1] + (n_pose + 3,))
+    for k, (p, c) in enumerate(zip(flat_p, flat_c)):
+        root = integrate_control(c, fps, start)
+        origin = np.stack([root[:, 0], np.zeros(len(root)), root[:, 1]], axis=-1)
+        pose = np.einsum("fab,fjb->fja", y_rotation(-root[:, 2]), p - origin[:, None])
+        out[k] = np.concatenate([pose.reshape(len(root), n_pose), c], axis=-1)
+    return out.reshape(control.shape[:-1] + (n_pose + 3,))
+
+
 def mirror_features(features: np.ndarray, skeleton: Skeleton = LOCOMOTION) -> np.ndarray:
     """Mirror left and right: reflect ``x``, swap left/right joints, negate sideways and
     turning velocity. Works on ``(..., frames, 3 * joints + 3)``; applying it twice is exact."""

@@ -86,7 +86,11 @@ def shipped():
 def test_the_table_on_a_few_held_out_windows(shipped):
     windows = experiments.held_out_windows(comparison.TEST_WINDOW, comparison.FPS, n_clips=1)[:3]
     rows = comparison.table_rows(shipped, windows)
-    assert list(rows) == ["data"] + [e.label for e in comparison.ENTRIES]
+    assert list(rows) == ["data"] + [label for e in comparison.ENTRIES for label in (e.label, e.label + comparison.FINISHED)]
+    for e in comparison.ENTRIES:                      # finished: every bone one length, the feet locked
+        finished = rows[e.label + comparison.FINISHED]
+        assert finished["bone drift (%)"] < 1e-6 and 0 <= finished["out of reach"] <= 1
+        assert finished["stepping (m/s)"] > 0.8 * rows[e.label]["stepping (m/s)"]
     assert rows["data"]["bone drift (%)"] < 1e-6 and rows["data"]["stepping (m/s)"] > 0.3
     assert np.isnan(rows["VAE"]["pose error 1 s (cm)"])                  # sees neither control nor prefix
     assert all(np.isfinite(rows[label]["pose error 3 s (cm)"]) for label in ("MoGlow", "DFN", "VAE-LSTM"))
@@ -101,8 +105,9 @@ def test_the_table_on_a_few_held_out_windows(shipped):
     speed = {label: {1: 100.0, 64: 1000.0} for label in shipped}
     lines = comparison.table(shipped, rows, long, speed).splitlines()
     assert len(lines) == 2 + len(rows) and lines[2].startswith("| **data**")
-    assert all(line.count("|") == 15 for line in lines)
-    nll_cells = {line.split("|")[1].strip(): line.split("|")[5].strip() for line in lines[3:]}
+    assert all(line.count("|") == 16 for line in lines)
+    nll_cells = {line.split("|")[1].strip(): line.split("|")[5].strip() for line in lines[3:]
+                 if not line.split("|")[1].strip().endswith(comparison.FINISHED)}
     assert nll_cells["**VAE**"].startswith("≤ ") and nll_cells["**VAE**"].endswith("(conv features)")
     assert nll_cells["**VAE-LSTM**"].startswith("≤ ") and nll_cells["**MoGlow**"][0] in "-0123456789"
     assert nll_cells["**DFN**"] == nll_cells["**LSTM-3LR**"] == "n/a"

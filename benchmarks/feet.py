@@ -1,0 +1,162 @@
+"""Feet that stay planted: every shipped model raw and finished (bones put back to their
+lengths, then the feet locked: ``motionlab.contacts``), walking and running.
+
+    python benchmarks/feet.py                              # built-in bodies on the walk and run paths
+    python benchmarks/feet.py --data ../shared/mocap/cmu   # also the 4-s windows of real clips
+
+Section 1. Every model of notebook 08 (``comparison.ENTRIES``) follows the built-in walk
+(1.5 m/s) and run (2.2 m/s) presets for 10 s, from four held-out bodies' standing
+half-second; the four bodies on the same paths are the data's rows. A model without a
+control draws freely (the VAE: 4-s windows; DFN continues the standing frames); Glow draws
+the path's first 4-s window. The flows are measured at every temperature; the others at
+their notebook's. Per row: foot skating (``metrics.foot_skating``, the data's planted
+heights) and its ratio to the data's, GMD's skating ratio (``metrics.skating_ratio``),
+stepping and leg swing against the data's, bone drift, the feet's 99th-percentile
+acceleration against the larger of the data's and the raw motion's, and for the finished
+motion the share of contacts whose lock let go because the leg could not reach.
+
+Section 2. The lock alone (no bone fitting) on the same samples: the bone drift it adds
+(target: at most 0.1 % more than the raw motion's) and whether anything above the hips
+moved; the contact thresholds; the causal lock's time per frame for one stream.
+
+Section 3 (``--data``). notebook 08's table on the folder's 4-s windows: the shipped models
+(trained on built-in clips), raw and finished, beside the real data.
+
+Targets (reported, not asserted): finished skating <= 1.5x the data's for every generative
+model on both paths; the lock adds no bone drift; stepping and leg swing >= 95 % of the
+raw motion's; foot acceleration <= 1.5x the larger of the data's and the raw motion's;
+the lock <= 1 ms per frame for one stream.
+"""
+from __future__ import annotations
+
+import argparse
+import time
+from dataclasses import replace
+
+import numpy as np
+
+from motionlab import comparison, contacts, experiments, metrics
+from motionlab.representation import N_POSE, to_positions
+
+FPS = comparison.FPS
+SECONDS = 10.0
+PATHS = ("walk", "run")
+TEMPERATURES = (0.0, 0.25, 0.5, 0.75, 1.0)
+N = 4
+
+
+def measures(features: np.ndarray, data: np.ndarray, floor: np.ndarray, raw: np.ndarray | None = None) -> dict:
+    """The row's figures for ``features`` ``(n, frames, 66)`` against the ``data`` bodies
+    (and, for finished motion, against its ``raw`` form)."""
+    positions, data_positions = to_positions(features, FPS), to_positions(data, FPS)
+    raw_positions = positions if raw is None else to_positions(raw, FPS)
+    skating = metrics.foot_skating(positions, FPS, rest_height_m=floor)
+    return {"skating": 100 * skating,
+            "x data": skating / metrics.foot_skating(data_positions, FPS, rest_height_m=floor),
+            "GMD": metrics.skating_ratio(positions, FPS, floor),
+            "stepping": metrics.stepping_speed(features, FPS, smooth_s=0.1)[:, int(FPS):].mean()
+            / metrics.stepping_speed(data, FPS, smooth_s=0.1)[:, int(FPS):].mean(),
+            "swing": metrics.leg_swing(features) / metrics.leg_swing(data),
+            "drift": 100 * metrics.bone_length_drift(positions),
+            "acc": metrics.foot_acceleration(positions, FPS) / max(metrics.foot_acceleration(data_positions, FPS),
+                                                                   metrics.foot_acceleration(raw_positions, FPS))}
+
+
+def line(label: str, m: dict, reach: float | None = None) -> str:
+    return (f"| {label} | {m['skating']:.1f} | {m['x data']:.2f} | {m['GMD']:.3f} | {m['stepping']:.2f} "
+            f"| {m['swing']:.2f} | {m['drift']:.2f} | {m['acc']:.2f} | "
+            + ("" if reach is None else f"{100 * reach:.0f} %") + " |")
+
+
+def samples_on(path: str, models: dict) -> tuple[np.ndarray, dict]:
+    """The data's bodies on a preset path and every model's samples on it, at every temperature
+    for the flows: ``(data (n, frames, 66), {(label, temperature): features})``."""
+    walks = experiments.preset_walks(path, SECONDS, FPS, N, lead_frames=comparison.PREFIX_FRAMES)
+    prefix, truth = walks[:, :comparison.PREFIX_FRAMES], walks[:, comparison.PREFIX_FRAMES:]
+    out = {}
+    for label, (entry, model) in models.items():
+        temperatures = TEMPERATURES if label in ("Glow", "MoGlow") else (entry.temperature,)
+        control = truth[0, :entry.window or truth.shape[1], N_POSE:]
+        for t in temperatures:
+            out[label, t] = comparison.respond(replace(entry, temperature=t), model, control, prefix, n=N)
+    return truth, out
+
+
+def section_1(models: dict) -> dict:
+    print("## 1. Raw and finished (bones fitted, feet locked), on the built-in walk and run paths "
+          f"({SECONDS:g} s, {N} samples; the data: {N} held-out bodies)\n")
+    print("| model, path, temperature | skating (cm/s) | / data's | GMD ratio | stepping / data | leg swing / data "
+          "| bone drift (%) | foot acc. p99 / max(data, raw) | IK out of reach |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    kept = {}
+    for path in PATHS:
+        truth, generated = samples_on(path, models)
+        floor = contacts.planted_heights(to_positions(truth, FPS))
+        print(line(f"**data**, {path}", measures(truth, truth, floor)))
+        for (label, t), features in generated.items():
+            data = truth[:, :features.shape[1]]
+            done = contacts.finish(features, FPS, planted_height_m=floor)
+            print(line(f"{label}, {path}, τ = {t:g}", measures(features, data, floor)))
+            print(line(f"{label}, {path}, τ = {t:g}, finished", measures(done.features, data, floor, features),
+                       done.lock.out_of_reach))
+            kept[label, path, t] = (features, floor)
+    return kept
+
+
+def section_2(kept: dict) -> None:
+    print("\n## 2. The lock alone (no bone fitting): what it adds to bone drift, and what it moves\n")
+    print("| model, path, temperature | bone drift raw (%) | locked (%) | added (%) | joints above the hips moved |")
+    print("|---|---|---|---|---|")
+    above = [j for j in range(21) if j not in {k for leg in contacts.LEGS for k in leg[1:]}]
+    for (label, path, t), (features, floor) in kept.items():
+        positions = to_positions(features, FPS)
+        locked = contacts.lock_feet(positions, FPS, planted_height_m=floor)
+        raw, new = (100 * metrics.bone_length_drift(p) for p in (positions, locked))
+        moved = int((np.abs(locked[..., above, :] - positions[..., above, :]) > 0).any(axis=(0, 1, 3)).sum())
+        print(f"| {label}, {path}, τ = {t:g} | {raw:.3f} | {new:.3f} | {new - raw:+.4f} | {moved} |")
+    print(f"\nthresholds: contact within {', '.join(f'{100 * h:g}' for h in contacts.CONTACT_HEIGHT_M[:2])} cm "
+          f"(ankle, toe) of the planted height, slower than {contacts.CONTACT_SPEED_MS:g} m/s or "
+          f"{contacts.BODY_FRACTION:g} x the hips' speed; released above {contacts.RELEASE:g} x either; "
+          f"blend in {contacts.BLEND_S:g} s, out {contacts.RELEASE_S:g} s")
+    features, floor = next(iter(kept.values()))
+    frames = to_positions(features[:1], FPS)[0]
+    lock = contacts.FootLock(FPS, planted_height_m=floor)
+    times = []
+    for _ in range(3):
+        lock.reset()
+        began = time.perf_counter()
+        for frame in frames:
+            lock.step(frame)
+        times.append((time.perf_counter() - began) / len(frames))
+    print(f"the causal lock (contacts detected as it goes), one stream: {1000 * min(times):.3f} ms per frame "
+          f"(best of 3 runs of {len(frames)} frames)")
+
+
+def section_3(models: dict, folder: str) -> None:
+    windows = comparison.evaluation_windows(folder)
+    print(f"\n## 3. The shipped models on {len(windows)} 4-s windows of {folder} (trained on built-in clips)\n")
+    rows = comparison.table_rows(models, windows)
+    print("| rows | stepping (m/s) | leg swing (cm) | foot skating (cm/s) | / data's | GMD ratio | bone drift (%) "
+          "| foot acc. p99 (m/s²) | IK out of reach |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    data = rows["data"]["foot skating (cm/s)"]
+    for label, r in rows.items():
+        reach = f"{100 * r['out of reach']:.0f} %" if "out of reach" in r else ""
+        print(f"| {label} | {r['stepping (m/s)']:.2f} | {r['leg swing (cm)']:.1f} | {r['foot skating (cm/s)']:.1f} "
+              f"| {r['foot skating (cm/s)'] / data:.2f} | {r['skating ratio']:.3f} | {r['bone drift (%)']:.2f} "
+              f"| {r['foot acceleration (m/s²)']:.0f} | {reach} |")
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--data", default=None, help="a folder of .bvh / .amc files for section 3")
+    args = parser.parse_args(argv)
+    models = comparison.load_models()
+    kept = section_1(models)
+    section_2(kept)
+    if args.data:
+        section_3(models, args.data)
+
+
+if __name__ == "__main__":
+    main()

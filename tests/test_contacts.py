@@ -1,0 +1,253 @@
+"""Foot contacts, the foot lock (offline and causal), two-bone IK, bones put back to their
+lengths, and the planted feet's world velocity (motionlab.contacts)."""
+import numpy as np
+import pytest
+import torch
+
+from motionlab import contacts, metrics, synthetic
+from motionlab import representation as rep
+from motionlab.skeleton import FEET, LOCOMOTION
+
+FPS = 20.0
+ABOVE_HIPS = [j for j in range(LOCOMOTION.n_joints) if j not in {k for leg in contacts.LEGS for k in leg[1:]}]
+
+
+@pytest.fixture(scope="module")
+def walking() -> np.ndarray:
+    """Two built-in bodies walking the walk preset for 6 s, world positions (2, 121, 21, 3)."""
+    control = synthetic.preset_control("walk", 6.0 + 1 / FPS, FPS)
+    rng = np.random.default_rng(3)
+    return np.stack([synthetic.generate(control, FPS, synthetic.Body.random(rng), phase=0.3 * k).positions
+                     for k in range(2)])
+
+
+def sliding(positions: np.ndarray, factor: float = 1.15) -> np.ndarray:
+    """The same bodies carried faster than their feet sweep: the stride a model under-shoots.
+    Planted feet then slide forward at (factor - 1) times the body's speed."""
+    features = np.stack([rep.to_features(p, FPS) for p in positions])
+    features[..., rep.N_POSE:rep.N_POSE + 2] *= factor
+    return rep.to_positions(features, FPS)
+
+
+def skating(positions, floor) -> float:
+    return metrics.foot_skating(positions, FPS, rest_height_m=floor)
+
+
+# ---------------------------------------------------------------------------------------
+# contacts from data
+# ---------------------------------------------------------------------------------------
+
+def test_walking_feet_are_in_contact_about_60_percent_of_the_time(walking):
+    labels = contacts.detect(walking, FPS)
+    assert labels.shape == walking.shape[:2] + (4,) and labels.dtype == bool
+    assert 0.45 < labels.mean() < 0.8
+    # the two feet alternate: each is free somewhere, and at least one foot is down nearly always
+    assert (~labels).any(axis=1).all()
+    feet_down = labels.reshape(*labels.shape[:2], 2, 2).any(-1).any(-1)
+    assert feet_down[:, int(FPS):].mean() > 0.9          # after the first second's ramp
+
+
+def test_a_standing_body_is_in_contact_throughout_and_a_lifted_foot_is_not(walking):
+    standing = np.repeat(walking[0, :1], 40, axis=0)
+    assert contacts.detect(standing, FPS).all()
+    lifted = standing.copy()
+    left_leg = [LOCOMOTION.index(n) for n in ("LeftFoot", "LeftToeBase")]
+    lifted[:, left_leg, 1] += 0.2
+    labels = contacts.detect(lifted, FPS, planted_height_m=contacts.planted_heights(standing))
+    assert not labels[:, :2].any() and labels[:, 2:].all()
+
+
+def test_the_majority_filter_removes_one_frame_flickers(walking):
+    standing = np.repeat(walking[0, :1], 40, axis=0)
+    flicker = standing.copy()
+    flicker[20, FEET[1], 1] += 0.2                       # one frame of a toe in the air
+    floor = contacts.planted_heights(standing)
+    assert contacts.detect(flicker, FPS, floor)[:, 1].all()
+    assert not contacts.detect(flicker, FPS, floor, clean_s=0)[20, 1]
+
+
+def test_labels_of_data_features_agree_with_the_detector(walking):
+    features = torch.tensor(np.stack([rep.to_features(p, FPS) for p in walking]))
+    labels = contacts.contact_labels(features, FPS, contacts.planted_heights(walking)).numpy().astype(bool)
+    detected = contacts.detect(walking, FPS, clean_s=0)
+    agree = (labels == (detected[:, 1:] & detected[:, :-1])).mean()
+    assert agree > 0.85, agree
+
+
+# ---------------------------------------------------------------------------------------
+# two-bone IK and bones
+# ---------------------------------------------------------------------------------------
+
+def test_two_bone_ik_reaches_keeps_lengths_and_bends_the_knee_its_way():
+    rng = np.random.default_rng(0)
+    hip = rng.normal(size=(50, 3))
+    knee = hip + np.array([0, -0.45, 0.05]) + 0.02 * rng.normal(size=(50, 3))
+    ankle = knee + np.array([0, -0.42, -0.03]) + 0.02 * rng.normal(size=(50, 3))
+    target = hip + 0.85 * (ankle - hip) + 0.02 * rng.normal(size=(50, 3))
+    new_knee, new_ankle, reached = contacts.two_bone_ik(hip, knee, ankle, target)
+    assert reached.all()
+    np.testing.assert_allclose(new_ankle, target, atol=1e-9)
+    np.testing.assert_allclose(np.linalg.norm(new_knee - hip, axis=-1), np.linalg.norm(knee - hip, axis=-1))
+    np.testing.assert_allclose(np.linalg.norm(new_ankle - new_knee, axis=-1), np.linalg.norm(ankle - knee, axis=-1))
+    # the knee stays on the side it pointed to, seen from the hip-target line
+    line = (target - hip) / np.linalg.norm(target - hip, axis=-1, keepdims=True)
+
+    def side(k):
+        v = k - hip
+        return v - (v * line).sum(-1, keepdims=True) * line
+    assert ((side(knee) * side(new_knee)).sum(-1) > 0).all()
+    far = hip + 5 * line
+    _, straight, reached = contacts.two_bone_ik(hip, knee, ankle, far)
+    assert not reached.any()
+    leg = np.linalg.norm(knee - hip, axis=-1) + np.linalg.norm(ankle - knee, axis=-1)
+    np.testing.assert_allclose(np.linalg.norm(straight - hip, axis=-1), leg, rtol=1e-5)
+
+
+def test_fit_bones_gives_every_bone_one_length_and_keeps_the_feet(walking):
+    rng = np.random.default_rng(1)
+    stretched = walking + 0.01 * rng.normal(size=walking.shape)
+    assert metrics.bone_length_drift(stretched) > 0.01
+    fitted = contacts.fit_bones(stretched)
+    assert metrics.bone_length_drift(fitted) < 1e-9
+    lengths = LOCOMOTION.bone_lengths(fitted)
+    np.testing.assert_allclose(lengths, np.median(LOCOMOTION.bone_lengths(stretched), axis=1, keepdims=True)
+                               .repeat(walking.shape[1], 1), atol=1e-9)
+    ankles = [FEET[0], FEET[2]]
+    moved = np.linalg.norm(fitted[..., ankles, :] - stretched[..., ankles, :], axis=-1)
+    legs = [[LOCOMOTION.index(s + n) for n in ("UpLeg", "Leg", "Foot")] for s in ("Left", "Right")]
+    reach = np.stack([np.linalg.norm(fitted[..., a, :] - fitted[..., b, :], axis=-1)
+                      + np.linalg.norm(fitted[..., b, :] - fitted[..., c, :], axis=-1) for a, b, c in legs], -1)
+    hip_to_ankle = np.stack([np.linalg.norm(stretched[..., c, :] - fitted[..., a, :], axis=-1) for a, _, c in legs], -1)
+    within = hip_to_ankle < reach * (1 - 1e-5)
+    assert within.mean() > 0.5 and moved[within].max() < 1e-9             # where the leg reaches, the feet stay
+    np.testing.assert_array_equal(fitted[..., 0, :], stretched[..., 0, :])          # the root stays
+    given = contacts.fit_bones(stretched, LOCOMOTION.bone_lengths(walking[0, 0]), keep_feet=False)
+    np.testing.assert_allclose(LOCOMOTION.bone_lengths(given), np.broadcast_to(LOCOMOTION.bone_lengths(
+        walking[0, 0]), LOCOMOTION.bone_lengths(given).shape), atol=1e-9)
+
+
+# ---------------------------------------------------------------------------------------
+# the lock
+# ---------------------------------------------------------------------------------------
+
+def test_the_lock_stops_sliding_feet_and_moves_nothing_above_the_hips(walking):
+    floor = contacts.planted_heights(walking)
+    slides = sliding(walking)
+    assert skating(slides, floor) > 3 * skating(walking, floor)          # 3-14x: the shipped models
+    result = contacts.lock(slides, FPS, planted_height_m=floor)
+    locked = result.positions
+    assert skating(locked, floor) < 0.5 * skating(slides, floor)
+    np.testing.assert_array_equal(locked[..., ABOVE_HIPS, :], slides[..., ABOVE_HIPS, :])
+    # bones keep the lengths they had in every frame
+    np.testing.assert_allclose(LOCOMOTION.bone_lengths(locked), LOCOMOTION.bone_lengths(slides), atol=1e-9)
+    # no pops: the feet accelerate no harder than the data's and the sliding motion's allow
+    assert metrics.foot_acceleration(locked, FPS) <= 1.5 * max(metrics.foot_acceleration(slides, FPS),
+                                                               metrics.foot_acceleration(walking, FPS))
+    # steps kept: the feet still move relative to the body
+    raw_step = metrics.stepping_speed(np.stack([rep.to_features(p, FPS) for p in slides]), FPS, smooth_s=0.1)
+    new_step = metrics.stepping_speed(np.stack([rep.to_features(p, FPS) for p in locked]), FPS, smooth_s=0.1)
+    assert new_step.mean() >= 0.95 * raw_step.mean()
+    assert 0.4 < result.locked_share < 0.8 and result.out_of_reach < 0.2
+
+
+def test_a_held_foot_stays_where_it_landed(walking):
+    slides = sliding(walking[:1])
+    result = contacts.lock(slides, FPS)
+    toe = result.positions[0, :, FEET[1]]
+    held = result.contacts[0, :, 1]
+    runs = np.flatnonzero(np.diff(np.r_[0, held.astype(int), 0]))
+    longest = max(zip(runs[::2], runs[1::2]), key=lambda r: r[1] - r[0])
+    start, end = longest[0] + 1, longest[1]              # skip the landing frame
+    drift = np.linalg.norm(toe[start:end, [0, 2]] - toe[start, [0, 2]], axis=-1).max()
+    assert drift < 0.01, drift
+
+
+def test_a_motion_without_contacts_is_left_alone(walking):
+    high = walking[:1].copy()
+    high[..., 1] += 0.5
+    result = contacts.lock(high, FPS, planted_height_m=contacts.planted_heights(walking))
+    assert not result.contacts.any()
+    np.testing.assert_array_equal(result.positions, high)
+
+
+def test_the_causal_lock_needs_no_future_and_equals_the_offline_one_given_the_same_contacts(walking):
+    slides = sliding(walking)
+    offline = contacts.lock(slides, FPS)
+    floor = contacts.planted_heights(slides)
+    lock = contacts.FootLock(FPS, batch=2, planted_height_m=floor)
+    stepped = np.stack([lock.step(slides[:, t], offline.contacts[:, t]) for t in range(slides.shape[1])], axis=1)
+    np.testing.assert_allclose(stepped, offline.positions, atol=1e-12)
+    # detecting on its own, frame by frame: later frames cannot change earlier outputs
+    one = contacts.FootLock(FPS, planted_height_m=floor)
+    first = np.stack([one.step(frame) for frame in slides[0]])
+    changed = slides[0].copy()
+    changed[60:] += np.array([0.3, 0.0, -0.2])
+    one.reset()
+    second = np.stack([one.step(frame) for frame in changed])
+    np.testing.assert_array_equal(first[:60], second[:60])
+    assert skating(first[None], floor) < 0.6 * skating(slides[:1], floor)
+
+
+def test_finish_returns_features_on_the_same_path(walking):
+    features = np.stack([rep.to_features(p, FPS) for p in sliding(walking)])
+    done = contacts.finish(features, FPS)
+    np.testing.assert_array_equal(done.features[..., rep.N_POSE:], features[..., rep.N_POSE:])
+    np.testing.assert_allclose(rep.to_positions(done.features, FPS), done.positions, atol=1e-9)
+    assert metrics.bone_length_drift(done.positions) < 1e-9
+    raw = contacts.finish(features, FPS, fit=False, lock_feet=False)
+    np.testing.assert_allclose(raw.features, features, atol=1e-9)
+
+
+# ---------------------------------------------------------------------------------------
+# the training term
+# ---------------------------------------------------------------------------------------
+
+def test_foot_velocity_is_the_world_velocity_of_the_feet(walking):
+    features = np.stack([rep.to_features(p, FPS) for p in sliding(walking)])
+    world = rep.to_positions(features, FPS)[..., FEET, :][..., [0, 2]]
+    expected = np.linalg.norm(np.diff(world, axis=-3), axis=-1) * FPS
+    tensor = torch.tensor(features, requires_grad=True)
+    velocity = contacts.foot_velocity(tensor, FPS)
+    np.testing.assert_allclose(velocity.detach().norm(dim=-1).numpy(), expected, atol=1e-9)
+    velocity.square().sum().backward()
+    assert tensor.grad[..., rep.N_POSE:].abs().sum() > 0 and tensor.grad[..., :rep.N_POSE].abs().sum() > 0
+
+
+# ---------------------------------------------------------------------------------------
+# the measures beside it
+# ---------------------------------------------------------------------------------------
+
+def test_skating_ratio_and_foot_acceleration(walking):
+    standing = np.repeat(walking[0, :1], 40, axis=0)
+    assert metrics.skating_ratio(standing, FPS) == 0.0
+    assert metrics.foot_acceleration(standing, FPS) == 0.0
+    floor = metrics.foot_rest_heights(walking)
+    assert metrics.skating_ratio(sliding(walking, 2.0), FPS, floor) > metrics.skating_ratio(walking, FPS, floor)
+    glide = standing + np.arange(40)[:, None, None] * np.array([0.0, 0.0, 1.0 / FPS])     # 1 m/s, feet down
+    assert metrics.skating_ratio(glide, FPS) == 1.0
+
+
+# ---------------------------------------------------------------------------------------
+# bad input
+# ---------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("call, name", [
+    (lambda w: contacts.lock_feet(np.where(np.arange(21)[:, None] == 3, np.nan, w[0]), FPS), "positions"),
+    (lambda w: contacts.lock_feet(w[0, :, :20], FPS), "positions"),
+    (lambda w: contacts.lock_feet(w[0, :2], FPS), "positions"),                   # shorter than the blend
+    (lambda w: contacts.lock_feet(w[0], FPS, contacts=np.ones((w.shape[1], 2), bool)), "contacts"),
+    (lambda w: contacts.lock_feet(w[0], FPS, contacts=np.ones((w.shape[1], 4))), "contacts"),
+    (lambda w: contacts.lock_feet(w[0], 0.0), "fps"),
+    (lambda w: contacts.detect(w[0], FPS, height_m=(0.05, -1, 0.05, 0.03)), "height_m"),
+    (lambda w: contacts.detect(w[0], FPS, planted_height_m=(0.1, 0.1)), "planted_height_m"),
+    (lambda w: contacts.detect(w[0], FPS, speed_ms=float("nan")), "speed_ms"),
+    (lambda w: contacts.fit_bones(w[0], lengths=np.ones(3)), "lengths"),
+    (lambda w: contacts.FootLock(FPS, batch=2).step(w[0, 0]), "frame"),
+    (lambda w: contacts.FootLock(FPS).step(w[0, 0], contacts=np.ones(3, bool)), "contacts"),
+    (lambda w: contacts.foot_velocity(np.zeros((4, 66)), FPS), "features"),
+    (lambda w: metrics.skating_ratio(w[0, :1], FPS), "positions"),
+    (lambda w: metrics.foot_acceleration(w[0], FPS, percentile=120), "percentile"),
+])
+def test_bad_input_is_refused_naming_the_argument(walking, call, name):
+    with pytest.raises(ValueError, match=name):
+        call(walking)
