@@ -166,7 +166,9 @@ def table_rows(models: dict, windows: np.ndarray, seed: int = 0, finish: bool = 
     percentile). The data's own row comes first. With ``finish``, each model's row is
     followed by its finished row (label + :data:`FINISHED`): the same samples through
     :func:`motionlab.contacts.finish` (bones, then feet locked; the same measures, and
-    ``out of reach``: the share of contacts the lock let go for reach)."""
+    ``out of reach``: the share of contacts the lock let go for reach); both then have
+    ``planted speed (cm/s)`` (:func:`motionlab.contacts.planted_speed` over the contacts
+    detected on the raw samples)."""
     windows = np.asarray(windows, dtype=np.float64)
     judged = windows[:, PREFIX_FRAMES:]
     rest = metrics.foot_rest_heights(to_positions(judged, FPS))
@@ -192,7 +194,10 @@ def table_rows(models: dict, windows: np.ndarray, seed: int = 0, finish: bool = 
                        "training (min)": _training_minutes(model)}
         if finish:
             done = contacts.finish(out, FPS, planted_height_m=rest)
-            rows[label + FINISHED] = {**row(done.features), "out of reach": done.lock.out_of_reach}
+            labels = contacts.detect(to_positions(out, FPS), FPS, rest)
+            rows[label]["planted speed (cm/s)"] = 100 * contacts.planted_speed(to_positions(out, FPS), FPS, labels)
+            rows[label + FINISHED] = {**row(done.features), "out of reach": done.lock.out_of_reach,
+                                      "planted speed (cm/s)": 100 * contacts.planted_speed(done.positions, FPS, labels)}
     return rows
 
 

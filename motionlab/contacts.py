@@ -189,6 +189,22 @@ def detect(positions, fps: float, planted_height_m=None, height_m=CONTACT_HEIGHT
     return _majority(labels, min(width, 2 * ((labels.shape[-2] - 1) // 2) + 1))
 
 
+def planted_speed(positions, fps: float, contacts) -> float:
+    """How fast the feet move while in contact, m/s: the mean horizontal speed of the ankles
+    and toes between frames ``t`` and ``t + 1`` where ``contacts`` ``(..., frames, 4)`` has
+    the joint in contact in both. Zero for feet that stay where they land; what a lock is
+    for (the skating measure also counts feet that are low but not planted)."""
+    positions = _positions(positions)
+    fps = checks.rate(fps, "fps")
+    contacts = np.asarray(contacts)
+    if contacts.shape != positions.shape[:-2] + (len(FEET),) or contacts.dtype != bool:
+        raise ValueError(f"contacts: expected booleans of shape {positions.shape[:-2] + (len(FEET),)}, "
+                         f"got {contacts.dtype} {contacts.shape}")
+    speed = np.linalg.norm(np.diff(positions[..., FEET, :][..., [0, 2]], axis=-3), axis=-1) * fps
+    held = contacts[..., 1:, :] & contacts[..., :-1, :]
+    return float(speed[held].mean()) if held.any() else 0.0
+
+
 # ----------------------------------------------------------------------------------------
 # 2. Two-bone IK and the foot lock
 # ----------------------------------------------------------------------------------------

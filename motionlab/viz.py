@@ -482,3 +482,86 @@ def plot_motion(features: np.ndarray, fps: float, fig=None, title: str | None = 
                                                                                               fontsize=8)
     fig.tight_layout()
     return fig
+
+
+def plot_contacts(positions: np.ndarray, fps: float, contacts, joint: int = 1, axes=None,
+                  planted_height_m=None, thresholds: tuple[float, float] | None = None, label: str | None = None):
+    """One foot joint's height above its planted height and its horizontal speed over time,
+    contact frames shaded: two axes (made if ``axes`` is None). ``positions`` ``(frames, 21,
+    3)``; ``contacts`` ``(frames, 4)`` booleans (``motionlab.contacts.detect``); ``joint``
+    indexes ``FEET`` (0 left ankle, 1 left toe, 2 right ankle, 3 right toe);
+    ``thresholds`` ``(height m, speed m/s)`` are drawn as dotted lines. Returns the axes."""
+    from .skeleton import FEET
+    positions = checks.array(positions, "positions", ("frames", LOCOMOTION.n_joints, 3))
+    fps = checks.rate(fps, "fps")
+    contacts = np.asarray(contacts)
+    if contacts.shape != (len(positions), len(FEET)):
+        raise ValueError(f"contacts: expected ({len(positions)}, {len(FEET)}), got {contacts.shape}")
+    if axes is None:
+        axes = plt.subplots(2, 1, figsize=(10, 4), sharex=True)[1]
+    j = FEET[checks.whole(joint, "joint", minimum=0)] if joint < len(FEET) else None
+    if j is None:
+        raise ValueError(f"joint: expected 0-3 (an index into FEET), got {joint}")
+    floor = np.percentile(positions[:, j, 1], 5) if planted_height_m is None else \
+        np.broadcast_to(planted_height_m, (len(FEET),))[joint]
+    t = np.arange(len(positions)) / fps
+    speed = np.linalg.norm(np.gradient(positions[:, j, [0, 2]], axis=0), axis=-1) * fps
+    axes[0].plot(t, 100 * (positions[:, j, 1] - floor), label=label)
+    axes[1].plot(t, speed, label=label)
+    axes[0].set_ylabel(f"{LOCOMOTION.names[j]}\nheight above\nplanted (cm)")
+    axes[1].set_ylabel("horizontal\nspeed (m/s)")
+    axes[1].set_xlabel("time (s)")
+    for ax, limit in zip(axes, (None, None) if thresholds is None else (100 * thresholds[0], thresholds[1])):
+        ax.fill_between(t, 0, 1, where=contacts[:, joint], transform=ax.get_xaxis_transform(), color="0.88",
+                        label="contact" if ax is axes[0] else None)
+        if limit is not None:
+            ax.axhline(limit, color="k", ls=":", lw=1)
+    axes[0].legend(fontsize=8, loc="upper right")
+    return axes
+
+
+def plot_footprints(motions: dict, contacts: dict | None = None, ax=None, every: int = 1):
+    """Seen from above (world ``z`` right, ``x`` up, as :func:`plot_trajectory`), the path
+    of each toe of every motion in ``motions`` ``{label: (frames, 21, 3)}``, with a dot at
+    each frame where ``contacts[label]`` ``(frames, 4)`` says the toe is down: a planted
+    foot leaves one tight cluster of dots, a sliding one a smear. Returns the axes."""
+    from .skeleton import FEET
+    if ax is None:
+        ax = plt.figure(figsize=(10, 3.5)).add_subplot()
+    for k, (label, positions) in enumerate(motions.items()):
+        positions = checks.array(positions, f"motions[{label!r}]", ("frames", LOCOMOTION.n_joints, 3))
+        color = f"C{k}"
+        for side, joint in ((0, 1), (1, 3)):
+            toe = positions[::every, FEET[joint]]
+            ax.plot(toe[:, 2], toe[:, 0], color=color, lw=0.8, alpha=0.6, ls="-" if side == 0 else "--",
+                    label=f"{label}: {'left' if side == 0 else 'right'} toe")
+            if contacts is not None and label in contacts:
+                down = np.asarray(contacts[label])[::every, joint]
+                ax.plot(toe[down, 2], toe[down, 0], "o", ms=3, color=color, alpha=0.8)
+    ax.set_xlabel("z (m)")
+    ax.set_ylabel("x (m)")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.grid(True, color="0.9")
+    ax.legend(fontsize=7, ncol=2)
+    return ax
+
+
+def plot_leg(before: np.ndarray, after: np.ndarray, leg: int = 0, ax=None, target=None):
+    """A leg (hip, knee, ankle, toe) from the side (world ``z`` right, ``y`` up) before and
+    after two-bone IK: ``before`` and ``after`` are poses ``(21, 3)``; ``leg`` 0 left, 1
+    right; ``target``, the ankle's target ``(3,)``, drawn as a cross. Returns the axes."""
+    from .contacts import LEGS
+    if ax is None:
+        ax = plt.figure(figsize=(4, 4)).add_subplot()
+    chain = list(LEGS[leg])
+    for pose, style, label in ((before, "--", "before"), (after, "-", "after IK")):
+        pose = checks.array(pose, "pose", (LOCOMOTION.n_joints, 3))
+        ax.plot(pose[chain, 2], pose[chain, 1], style, marker="o", lw=2, label=label)
+    if target is not None:
+        ax.plot(target[2], target[1], "kx", ms=10, mew=2, label="ankle's target")
+    ax.axhline(0, color="0.5", lw=1)
+    ax.set_xlabel("z (m)")
+    ax.set_ylabel("height (m)")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.legend(fontsize=8)
+    return ax
