@@ -117,14 +117,16 @@ def train_all(runs: list[Run], args: argparse.Namespace) -> None:
 def held_out_term(model, windows: np.ndarray) -> float:
     """The contact term on held-out ``windows`` (data units) as the model reconstructs them,
     (m/s)²: the VAE-LSTM from ``z_1`` alone (as it generates), its pose along the true control;
-    DFN through its sequence autoencoder (what its frame and sequence stages train)."""
+    DFN through its sequence autoencoder, piece by piece (what its frame and sequence stages
+    train; the pieces are decoded apart, so no velocity is taken across their seams)."""
     x = torch.tensor(model.normalizer.normalize(windows), dtype=torch.float32)
     if isinstance(model, VAELSTM):
         r = model.reconstruct(x, free_running=True)
         r = torch.cat([r[..., :N_POSE], x[..., N_POSE:]], -1)
     else:
-        r = model.reconstruct(x, through="sequence")
-        x = x[:, :r.shape[1]]
+        H = model.config.horizon
+        r = model.reconstruct(x, through="sequence").reshape(-1, H, x.shape[-1])
+        x = x[:, :x.shape[1] // H * H].reshape(-1, H, x.shape[-1])
     with torch.no_grad():
         return float(model.contact_term(r, x))
 
