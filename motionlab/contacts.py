@@ -617,3 +617,24 @@ def contact_labels(features, fps: float, planted_height_m=PLANTED_HEIGHT_M, heig
     low = height < limit
     slow = foot_velocity(features, fps).norm(dim=-1) < checks.positive(speed_ms, "speed_ms")
     return (low[..., 1:, :] & low[..., :-1, :] & slow).to(features.dtype)
+
+
+def contact_velocity_loss(prediction, target, fps: float):
+    """The foot-contact velocity term, ``mean(labels · |v|²)`` in (m/s)²: ``labels`` the
+    planted ankles and toes of the data ``target`` (:func:`contact_labels`), ``v`` the same
+    joints' world velocity in ``prediction`` (:func:`foot_velocity`). Both torch tensors
+    ``(..., frames >= 2, 66)`` in data units; the mean is over frame pairs, foot joints and
+    the batch, and the gradient flows through ``prediction`` only.
+
+    MDM (Tevet et al. 2023) adds this term with the data's contacts, as here; HuMoR (Rempe
+    et al. 2021) and EDGE (Tseng et al. 2023) penalise the same velocity on contacts their
+    model predicts. A planted foot of the data must not move in the world in the model's
+    motion: what a root-local reconstruction error does not see (:func:`foot_velocity`)."""
+    import torch
+    if not (isinstance(prediction, torch.Tensor) and isinstance(target, torch.Tensor)) \
+            or prediction.shape != target.shape:
+        raise ValueError(f"prediction, target: expected two tensors of one shape (..., frames, 66), got "
+                         f"{tuple(getattr(prediction, 'shape', ()))} and {tuple(getattr(target, 'shape', ()))}")
+    with torch.no_grad():
+        labels = contact_labels(target, fps)
+    return (labels * foot_velocity(prediction, fps).square().sum(-1)).mean()

@@ -34,7 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
-from .. import checks
+from .. import checks, contacts
 from ..representation import CONTROL, N_POSE, to_positions
 
 N_FEATURES = N_POSE + 3
@@ -150,6 +150,19 @@ class GenerativeModel:
     def _refuse_prefix(self, prefix) -> None:
         if prefix is not None:
             raise ValueError(f"prefix: {type(self).__name__} does not continue motion; it draws whole windows")
+
+    def contact_term(self, prediction: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
+        """:func:`motionlab.contacts.contact_velocity_loss` of a reconstruction against its
+        data, both normalised ``(batch, frames, 66)``, measured in the data's units through
+        ``model.normalizer`` (which :func:`motionlab.training.train` sets from the data before
+        the first step): the models train on normalised features, and a foot's world
+        velocity only exists in metres. Computed in float32 (under mixed precision too)."""
+        if self.normalizer is None:
+            raise ValueError(f"contact_weight: {type(self).__name__}'s contact term measures feet in the data's "
+                             "units and needs its normaliser; train with training.train on a MotionData "
+                             "(it sets model.normalizer) or set model.normalizer")
+        return contacts.contact_velocity_loss(self.normalizer.denormalize(prediction.float()),
+                                              self.normalizer.denormalize(target.float()), self.fps)
 
     def _result(self, normalised: torch.Tensor) -> Generated:
         """Normalised features ``(n, frames, 66)`` -> :class:`Generated` in the data's units."""

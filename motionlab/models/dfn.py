@@ -85,6 +85,9 @@ class DFNConfig:
         pose_decoder: ``"rotations"`` (§5.1: a rotation per joint, passed through forward
             kinematics over one fixed skeleton, so bone lengths cannot change) or
             ``"positions"`` (the 63 root-local coordinates directly; bones may stretch).
+        contact_weight: weight of the foot-contact velocity term (HuMoR, EDGE, MDM) in the
+            two stages whose loss is on decoded frames (eqs. 2 and 3; see :meth:`DFN.frame_loss`),
+            per (m/s)² of planted-foot velocity; 0 = off (the shipped model).
     """
 
     n_pose: int = 63
@@ -109,9 +112,11 @@ class DFNConfig:
     observation_std: float = 0.1
     velocity_weight: float = 1.0
     pose_decoder: str = "rotations"
+    contact_weight: float = 0.0
 
     def __post_init__(self):
-        checks.config(self, positive_fields=("observation_std",), non_negative_fields=("td_weight", "velocity_weight"))
+        checks.config(self, positive_fields=("observation_std",),
+                      non_negative_fields=("td_weight", "velocity_weight", "contact_weight"))
         for name in ("n_pose", "n_control", "frame_hidden", "pose_code", "velocity_code", "horizon",
                      "summary", "past", "future", "current", "future_prior_hidden",
                      "current_prior_hidden", "summary_decoder_hidden", "current_posterior_hidden",
@@ -508,18 +513,38 @@ class DFN(GenerativeModel, nn.Module):
 
     def frame_loss(self, batch: torch.Tensor) -> dict[str, torch.Tensor]:
         """Eq. 2: mean squared error of every frame's reconstruction through the frame
-        autoencoder (normalised units); ``pose_mse`` and ``velocity_mse`` logged apart."""
+        autoencoder (normalised units); ``pose_mse`` and ``velocity_mse`` logged apart.
+
+        With ``contact_weight > 0``, here and in :meth:`sequence_loss` (the two stages that
+        decode frames; the dynamics model's loss is on codes, and it generates through the
+        frame decoder these stages train), the foot-contact velocity term of HuMoR (Rempe et
+        al. 2021), EDGE (Tseng et al. 2023) and MDM (Tevet et al. 2023) is added, times
+        ``contact_weight``: where the data's feet are planted, their squared world velocity
+        in the decoded frames, (m/s)², pose and decoded velocity together as DFN generates
+        them (:meth:`contact_term`, in the data's units through ``model.normalizer``).
+        Logged as ``contact``."""
         recon = self.frame.decode(self.frame.encode(batch))
         n = self.config.n_pose
         loss = F.mse_loss(recon, batch)
-        return {"loss": loss, "pose_mse": F.mse_loss(recon[..., :n], batch[..., :n]).detach(),
-                "velocity_mse": F.mse_loss(recon[..., n:], batch[..., n:]).detach()}
+        return self._with_contact(recon, batch, {
+            "loss": loss, "pose_mse": F.mse_loss(recon[..., :n], batch[..., :n]).detach(),
+            "velocity_mse": F.mse_loss(recon[..., n:], batch[..., n:]).detach()})
+
+    def _with_contact(self, recon: torch.Tensor, target: torch.Tensor,
+                      terms: dict[str, torch.Tensor]) -> dict[str, torch.Tensor]:
+        """``terms`` with the contact term of ``recon`` against ``target`` added to the loss
+        and logged, when ``contact_weight > 0`` (see :meth:`frame_loss`)."""
+        if self.config.contact_weight == 0:
+            return terms
+        contact = self.contact_term(recon, target)
+        return {**terms, "loss": terms["loss"] + self.config.contact_weight * contact, "contact": contact.detach()}
 
     def sequence_loss(self, batch: torch.Tensor) -> dict[str, torch.Tensor]:
         """Eq. 3 on ``horizon``-frame pieces of the windows: the frames decoded (through
         the frozen frame decoder) from the unrolled summary against the true frames, plus
         ``velocity_weight`` times the same for their frame-to-frame differences (joint
-        velocities). Normalised units."""
+        velocities). Normalised units. With ``contact_weight > 0``, plus the contact term on
+        the decoded pieces (see :meth:`frame_loss`)."""
         H = self.config.horizon
         # Choice: pieces start every H // 2 frames from a random offset, not at every frame:
         # neighbouring pieces overlap almost entirely, and this is several times faster.
@@ -533,8 +558,9 @@ class DFN(GenerativeModel, nn.Module):
         recon = self.frames_from_codes(self.sequence.decode(self.sequence.encode(pieces)))
         frame_mse = F.mse_loss(recon, targets)
         velocity_mse = F.mse_loss(recon.diff(dim=1), targets.diff(dim=1))
-        return {"loss": frame_mse + self.config.velocity_weight * velocity_mse,
-                "frame_mse": frame_mse.detach(), "velocity_mse": velocity_mse.detach()}
+        return self._with_contact(recon, targets, {"loss": frame_mse + self.config.velocity_weight * velocity_mse,
+                                                   "frame_mse": frame_mse.detach(),
+                                                   "velocity_mse": velocity_mse.detach()})
 
     def infer(self, batch: torch.Tensor, generator: torch.Generator | None = None) -> dict[str, torch.Tensor]:
         """The inference pass of §5.4 over windows ``(batch, frames, 66)``.

@@ -16,6 +16,7 @@ canvas back into frames at the full rate::
     canvas c_{1..T/4} --[upsample x2, conv] x 2--> X^ (T x 66)                              §3.3
     loss = -log N(X | X^, std^2) + sum_s KL(q(z_s | X) || N(0, I))                          eqs. 4-5
          + free_running * -log N(X | X^ decoded from z_1 alone, test-time cell, std^2)    (ours)
+         + contact_weight * mean(planted in X * |world foot velocity in X^|^2)   (HuMoR, EDGE, MDM; off: 0)
 
 Generation (§3.4, Algorithm 1) needs only a control signal: ``z_1`` comes from the prior
 (no frames) or from the posterior of the first 4 frames (§4.3), and the cell runs in its
@@ -76,6 +77,9 @@ class VAELSTMConfig:
             control before the control encoder sees it (an experiment, see
             :meth:`smooth_control`; 0 = the raw control, as in the paper).
         upsample: how the decoder doubles the frame rate: ``"linear"`` or ``"nearest"``.
+        contact_weight: weight of the foot-contact velocity term (HuMoR, EDGE, MDM; see
+            :meth:`loss`): nats per frame per (m/s)² of planted-foot velocity; 0 = off (the
+            shipped models).
     """
 
     n_pose: int = 63
@@ -94,10 +98,11 @@ class VAELSTMConfig:
     free_running: float = 1.0
     control_smoothing_s: float = 0.0
     upsample: str = "linear"
+    contact_weight: float = 0.0
 
     def __post_init__(self):
         checks.config(self, positive_fields=("observation_std",), probability_fields=("dropout",),
-                      non_negative_fields=("l1", "free_running", "control_smoothing_s"))
+                      non_negative_fields=("l1", "free_running", "control_smoothing_s", "contact_weight"))
         for name in ("n_pose", "n_control", "window", "control_filters", "control_code",
                      "inference_filters", "units", "decoder_filters"):
             if getattr(self, name) < 1:
@@ -392,6 +397,16 @@ class VAELSTM(GenerativeModel, nn.Module):
         ``z_1`` only: the path that generation takes, which the paper's objective never
         trains. Logged: ``nll`` and ``kl`` (nats per frame), ``mse`` (normalised units),
         and ``free_mse`` when used.
+
+        With ``contact_weight > 0`` the foot-contact velocity term of HuMoR (Rempe et al.
+        2021), EDGE (Tseng et al. 2023) and MDM (Tevet et al. 2023) is added, times
+        ``contact_weight``: where the window's feet are planted, their squared world velocity
+        in the reconstruction, (m/s)² (:meth:`contact_term`, in the data's units through
+        ``model.normalizer``). The reconstruction's pose moves along the window's own control,
+        as generation moves the pose along the control it is given (the decoded control is
+        only a training target). Applied to each reconstruction the loss has, with its weight
+        there: the training form, and the free-running one times ``free_running`` (the path
+        that generates, and whose feet slide). Logged: ``contact`` and ``free_contact``.
         """
         out = self(batch)
         frames = batch.shape[1]
@@ -405,6 +420,16 @@ class VAELSTM(GenerativeModel, nn.Module):
             free_nll = self._neg_log_likelihood(free, batch).sum(1) / frames
             total = total + self.config.free_running * free_nll.mean()
             terms["free_mse"] = F.mse_loss(free, batch).detach()
+        if self.config.contact_weight > 0:
+            n_pose = self.config.n_pose
+            contact = self.contact_term(torch.cat([out["reconstruction"][..., :n_pose], batch[..., n_pose:]], -1),
+                                        batch)
+            total = total + self.config.contact_weight * contact
+            terms["contact"] = contact.detach()
+            if self.config.free_running > 0:
+                free_contact = self.contact_term(torch.cat([free[..., :n_pose], batch[..., n_pose:]], -1), batch)
+                total = total + self.config.contact_weight * self.config.free_running * free_contact
+                terms["free_contact"] = free_contact.detach()
         return {"loss": total, **terms}
 
     # -- generation ----------------------------------------------------------------------
