@@ -54,7 +54,7 @@ checkpoints: setup
 		--out data/checkpoints/conv_ae.pt
 	$(TRAIN) vae --conv-ae data/checkpoints/conv_ae.pt $(MOTEGI) --set latent=16 beta=32.0 --epochs 60 \
 		--lr 1e-3 --out data/checkpoints/vae.pt
-	$(TRAIN) vae_lstm $(HABIBIE) --set observation_std=3.0 --out data/checkpoints/vae_lstm.pt
+	$(TRAIN) vae_lstm $(HABIBIE) --set observation_std=3.0 contact_weight=1.0 --out data/checkpoints/vae_lstm.pt
 	$(TRAIN) vae_lstm $(HABIBIE) --set observation_std=3.0 free_running=0.0 --out data/checkpoints/vae_lstm_paper_objective.pt
 	$(TRAIN) lstm $(HABIBIE) --set hidden=64 control=predicted --out data/checkpoints/lstm_no_control.pt
 	$(TRAIN) lstm $(HABIBIE) --set hidden=64 control=given --out data/checkpoints/lstm_control.pt

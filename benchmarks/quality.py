@@ -68,7 +68,7 @@ DFN_PREFIXES, DFN_SAMPLES, DFN_PREFIX_FRAMES = 8, 16, 10    # 8 held-out prefixe
 CONV_AE = (["--normalization", "shared_pose", "--lr", "2e-3", "--set", "depool=linear", "input_dropout=0.0",
             "l1=0.0"], 40)
 VAE = (["--normalization", "shared_pose", "--lr", "1e-3", "--set", "latent=16", "beta=32.0"], 60)
-VAE_LSTM = (["--lr", "3e-3", "--set", "observation_std=3.0"], 20)
+VAE_LSTM = (["--lr", "3e-3", "--set", "observation_std=3.0", "contact_weight=1.0"], 20)
 
 
 def report_row(name: str, features: np.ndarray, rest, finished: bool = False) -> None:
