@@ -109,15 +109,18 @@ def native_bfloat16() -> bool:
 def onednn_lstm(dtype: torch.dtype) -> bool:
     """Whether ``nn.LSTM`` runs under CPU autocast to ``dtype`` here with oneDNN enabled
     (``True`` for float32, and wherever PyTorch would not hand it to oneDNN). Tried once on
-    a tiny LSTM: oneDNN builds its bfloat16 LSTM from AVX-512 on (not on AVX2), its float16
-    one on fewer CPUs still."""
+    a tiny LSTM, for inference (no gradients) and for training (a different oneDNN
+    primitive): oneDNN builds its bfloat16 LSTM from AVX-512 on (not on AVX2), its float16
+    one on fewer CPUs still, and on some (Intel's AMX with AVX512-FP16) the float16 one for
+    inference only."""
     if dtype == torch.float32 or not torch.backends.mkldnn.is_available():
         return True
-    try:
-        with torch.no_grad(), _onednn(True), torch.autocast("cpu", dtype=dtype):
-            nn.LSTM(2, 2)(torch.zeros(3, 1, 2))
-    except RuntimeError:
-        return False
+    for gradients in (False, True):
+        try:
+            with torch.set_grad_enabled(gradients), _onednn(True), torch.autocast("cpu", dtype=dtype):
+                nn.LSTM(2, 2)(torch.zeros(3, 1, 2))
+        except RuntimeError:
+            return False
     return True
 
 
