@@ -8,8 +8,8 @@ Section 1. Every model of notebook 08 (``comparison.ENTRIES``) follows the built
 (1.5 m/s) and run (2.2 m/s) presets for 10 s, from four held-out bodies' standing
 half-second; the four bodies on the same paths are the data's rows. A model without a
 control draws freely (the VAE: 4-s windows; DFN continues the standing frames); Glow draws
-the path's first 4-s window. The flows are measured at every temperature; the others at
-their notebook's. Per row: foot skating (``metrics.foot_skating``, the data's planted
+the path's first 4-s window. The flows are measured at every temperature (and their
+notebook's); the others at their notebook's. Per row: foot skating (``metrics.foot_skating``, the data's planted
 heights) and its ratio to the data's, GMD's skating ratio (``metrics.skating_ratio``),
 stepping and leg swing against the data's, bone drift, the feet's 99th-percentile
 acceleration against the larger of the data's and the raw motion's, and for the finished
@@ -75,7 +75,8 @@ def samples_on(path: str, models: dict) -> tuple[np.ndarray, dict]:
     prefix, truth = walks[:, :comparison.PREFIX_FRAMES], walks[:, comparison.PREFIX_FRAMES:]
     out = {}
     for label, (entry, model) in models.items():
-        temperatures = TEMPERATURES if label in ("Glow", "MoGlow") else (entry.temperature,)
+        temperatures = sorted({*TEMPERATURES, entry.temperature}) if label in ("Glow", "MoGlow") else \
+            (entry.temperature,)
         control = truth[0, :entry.window or truth.shape[1], N_POSE:]
         for t in temperatures:
             out[label, t] = comparison.respond(replace(entry, temperature=t), model, control, prefix, n=N)
