@@ -43,6 +43,15 @@ the hips' root-local ``x`` and ``z`` (always 0) out of the flow: 61 modelled val
 frame. ``loss`` is the NLL in nats per modelled value; :meth:`MoGlow.nll` reports bits per
 predicted frame.
 
+**Feet anchored where they were planted** (``foot_anchor``, off by default). A planted
+foot must, in the root frame, sweep back by exactly the root's step every frame, and any
+error in that is sliding. With ``foot_anchor`` the flow models, for the ``x`` and ``z`` of
+each ankle and toe, the frame's value less where that joint would be had it stayed put in
+the world since the previous frame (:meth:`MoGlow.anchor`): a function of the previous
+pose and the control, which are conditioning, so the shift's log-determinant is 0 and the
+likelihood stays exact (``m`` takes the true previous pose, whether or not dropout hides it
+from the networks). Sampling adds it back frame by frame, :class:`MoGlowStream` too.
+
 Everything here reuses :mod:`motionlab.models.flows` unchanged: the coupling network is
 the pluggable part (:class:`LSTMCouplingNet` here; the Markovian variant of §4.2 uses
 :class:`~motionlab.models.flows.MLPCouplingNet`).
@@ -65,6 +74,10 @@ from .base import Generated, eval_mode, generator_for
 from .flows import (_LOG_SIGMOID_SHIFT, SCALE_SHIFT, FlowSequence, FlowStep, GaussianPrior, MLPCouplingNet,
                     output_layer)
 from .glow import MotionFlow
+from ..skeleton import FEET, LOCOMOTION
+
+# the root-local x and z features of the ankles and toes (FEET order), which foot_anchor shifts
+_FOOT_XZ = tuple(3 * j + axis for axis in (0, 2) for j in FEET)
 
 
 @dataclass(frozen=True)
@@ -92,6 +105,9 @@ class MoGlowConfig:
             history (Fig. 3), whose samples fade at laptop size.
         constant_features: pose features that are 0 in every frame and are left out of
             the flow (the hips' root-local ``x`` and ``z``).
+        foot_anchor: model the feet's ``x`` and ``z`` less where they would be had they
+            stayed planted since the previous frame (:meth:`MoGlow.anchor`); needs the
+            model's normaliser (``model.normalizer``, set by :func:`motionlab.training.train`).
     """
 
     n_features: int = 66
@@ -106,6 +122,7 @@ class MoGlowConfig:
     dropout: float = 0.95
     scale_history: bool = True
     constant_features: tuple[int, ...] = (0, 2)
+    foot_anchor: bool = False
 
     def __post_init__(self):
         checks.config(self, probability_fields=("dropout",))
@@ -123,6 +140,11 @@ class MoGlowConfig:
         bad = [i for i in self.constant_features if not 0 <= i < n_pose]
         if bad:
             raise ValueError(f"constant_features: {bad} are not pose features (0 .. {n_pose - 1})")
+        if self.foot_anchor and (n_pose, self.n_control) != (3 * LOCOMOTION.n_joints, 3):
+            raise ValueError(f"foot_anchor: needs the locomotion features ({3 * LOCOMOTION.n_joints} pose values "
+                             f"and 3 controls), got {n_pose} and {self.n_control}")
+        if self.foot_anchor and set(self.constant_features) & set(_FOOT_XZ):
+            raise ValueError("foot_anchor: the feet's x and z cannot be constant_features")
 
     @classmethod
     def paper(cls, **changes) -> "MoGlowConfig":
@@ -191,6 +213,10 @@ class MoGlow(MotionFlow):
         self.flow = FlowSequence(FlowStep(self.n_modelled, network, self.cond_channels)
                                  for _ in range(config.steps))
         self.prior = GaussianPrior()
+        if config.foot_anchor:              # the feet's x then z columns among the modelled values
+            modelled = [i for i in range(config.n_features - config.n_control) if i not in config.constant_features]
+            self.register_buffer("foot_columns", torch.tensor([modelled.index(i) for i in _FOOT_XZ]),
+                                 persistent=False)
 
     # -- data in and out -----------------------------------------------------------------
 
@@ -249,6 +275,50 @@ class MoGlow(MotionFlow):
         (the caller scales the history by :attr:`history_scale`)."""
         return torch.cat([history.flatten(1), controls.flatten(1)], dim=1)[:, None]
 
+    # -- feet anchored where they were planted (foot_anchor) ----------------------------
+
+    def anchor_units(self) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
+        """The model's normaliser where :meth:`anchor` needs it, float32 on the model's
+        device: the mean and std of the feet's ``x, z`` features (``(8,)``, :data:`_FOOT_XZ`
+        order) and of the control (``(3,)``)."""
+        if self.normalizer is None:
+            raise ValueError("foot_anchor: the shift is measured in the data's units and needs the model's "
+                             "normaliser; train with training.train on a MotionData (it sets model.normalizer) "
+                             "or set model.normalizer")
+        columns = list(_FOOT_XZ) + list(range(self.config.n_features)[self.control])
+        mean, std = (torch.as_tensor(np.asarray(values)[columns], dtype=torch.float32, device=self.modelled.device)
+                     for values in (self.normalizer.mean, self.normalizer.std))
+        n = len(_FOOT_XZ)
+        return mean[:n], std[:n], mean[n:], std[n:]
+
+    def anchor(self, previous: torch.Tensor, control: torch.Tensor, units=None) -> torch.Tensor:
+        """``m``: where each ankle and toe would be in this frame's root frame had it stayed
+        planted in the world since the previous frame, ``(..., 8)`` normalised (the feet's
+        ``x`` then ``z``, :data:`FEET` order), from the previous frame's modelled pose
+        ``(..., n_modelled)`` and its control ``(..., n_control)`` (normalised).
+
+        In the data's units, with ``θ = turning / fps`` and ``s = (sideways, forward) / fps``
+        the previous frame's step (:func:`motionlab.contacts.foot_velocity` inverted, world
+        velocity 0): ``m = R(θ)^-1 (p_{t-1} - s)``, ``R(θ)^-1 = [[cos θ, -sin θ], [sin θ, cos θ]]``
+        on ``(x, z)``. ``units``: :meth:`anchor_units`, if already at hand."""
+        foot_mean, foot_std, control_mean, control_std = self.anchor_units() if units is None else units
+        p = previous[..., self.foot_columns].float() * foot_std + foot_mean               # metres
+        c = control.float() * control_std + control_mean                                  # m/s, rad/s
+        fps = self.config.fps
+        theta = c[..., 2:3] / fps
+        x, z = p[..., :len(FEET)] - c[..., 1:2] / fps, p[..., len(FEET):] - c[..., 0:1] / fps
+        cos, sin = torch.cos(theta), torch.sin(theta)
+        m = torch.cat([cos * x - sin * z, sin * x + cos * z], dim=-1)
+        return ((m - foot_mean) / foot_std).to(previous.dtype)
+
+    def _anchored(self, poses: torch.Tensor, previous: torch.Tensor, control: torch.Tensor,
+                  sign: float, units=None) -> torch.Tensor:
+        """``poses`` with ``sign · m`` added to the feet's ``x, z`` (-1: the flow's values
+        from the poses; +1: the poses from the flow's values)."""
+        out = poses.clone()
+        out[..., self.foot_columns] += sign * self.anchor(previous, control, units)
+        return out
+
     # -- likelihood (eq. 16) -------------------------------------------------------------
 
     def log_likelihood(self, batch: torch.Tensor) -> torch.Tensor:
@@ -257,7 +327,11 @@ class MoGlow(MotionFlow):
         self.check_features(batch)
         poses, control = batch[..., self.modelled], batch[..., self.control]
         cond = self.conditioning(poses, control, drop=self.training)
-        z, logdet = self.flow(poses[:, self.config.history:], cond)
+        tau = self.config.history
+        target = poses[:, tau:]
+        if self.config.foot_anchor:          # a shift by the conditioning: log-determinant 0
+            target = self._anchored(target, poses[:, tau - 1:-1], control[:, tau - 1:-1], -1.0)
+        z, logdet = self.flow(target, cond)
         return self.prior.log_prob(z) + logdet
 
     def loss(self, batch: torch.Tensor) -> dict[str, torch.Tensor]:
@@ -344,6 +418,8 @@ class MoGlow(MotionFlow):
             for t in range(frames):
                 cond = self.frame_conditioning(self.history_scale * poses[:, -tau:], controls[:, t:t + tau + 1])
                 x = self.flow.inverse(temperature * noise[:, t:t + 1], cond)
+                if self.config.foot_anchor:
+                    x = self._anchored(x, poses[:, -1:], controls[:, t + tau - 1:t + tau], 1.0)
                 poses = torch.cat([poses, x], dim=1)
         return self.join_features(poses[:, tau:], control)
 
@@ -391,7 +467,9 @@ class MoGlow(MotionFlow):
                 f"coupling networks: {kind}, each sees b_lo ({self.n_modelled // 2}) + conditioning "
                 f"({self.cond_channels} = {c.history} poses x {self.n_modelled} + {c.history + 1} controls x "
                 f"{c.n_control})",
-                f"parameters: {weights:,} ({4 * weights / 1e6:.1f} MB as float32)"]
+                f"parameters: {weights:,} ({4 * weights / 1e6:.1f} MB as float32)"] + \
+            (["feet's x, z modelled less where they would be had they stayed planted (foot_anchor)"]
+             if c.foot_anchor else [])
 
 
 @dataclass(eq=False)
@@ -457,6 +535,9 @@ class MoGlowStream:
     rounded to bfloat16 before they are added in float32), everything else in float32;
     frames then differ from the float32 ones by about 1e-3 to 1e-2 in normalised units.
 
+    A ``foot_anchor`` model's stream adds each frame's ``m`` (:meth:`MoGlow.anchor`, from
+    the frame before and its control) to the flow's output, as :meth:`MoGlow.sample` does.
+
     >>> stream = model.stream(history)            # (batch, τ, 66) normalised features
     >>> frame = stream.step(control)              # (batch, 3) -> (batch, 66)
 
@@ -496,6 +577,7 @@ class MoGlowStream:
         self.controls = history[..., model.control].clone()             # (batch, τ, n_control)
         self.frames = 0
         self._history_scale = model.history_scale                        # fixed for the stream's life
+        self._anchor_units = model.anchor_units() if model.config.foot_anchor else None
         # How one frame's LSTM products run on a CPU (measured over paper-size layers, see
         # benchmarks/moglow_speed.py). One stream only reads weights, and the kernels differ:
         # * bfloat16, native arithmetic (AVX512-BF16, AMX) for both kernel families
@@ -674,6 +756,8 @@ class MoGlowStream:
                 coupled_lo.copy_(z_lo)
                 torch.addmm(coupling.unmix_bias, self._coupled, coupling.unmix, out=self._z)   # W^-1, ActNorm^-1
             x = self._z.clone()
+            if self._anchor_units is not None:                               # m from x_{t-1} and c_{t-1}
+                x = model._anchored(x, self.poses[:, -1], self.controls[:, -1], 1.0, self._anchor_units)
             self.poses = torch.cat([self.poses[:, 1:], x[:, None]], dim=1)
             self.controls = controls[:, 1:]
             self.frames += 1

@@ -1,0 +1,141 @@
+"""MoGlow's foot_anchor: the feet's x, z modelled less where they would be had they stayed
+planted since the previous frame; an exact shift by the conditioning."""
+from dataclasses import replace
+
+import numpy as np
+import pytest
+import torch
+
+from motionlab import contacts, data, training
+from motionlab.models.moglow import _FOOT_XZ, MoGlow, MoGlowConfig
+from motionlab.skeleton import FEET
+
+SMALL = MoGlowConfig(window=16, history=4, steps=3, hidden=16)
+ANCHORED = replace(SMALL, foot_anchor=True)
+FPS = SMALL.fps
+
+
+@pytest.fixture(scope="module")
+def walker():
+    """A built-in synthetic clip in data units ``(frames, 66)`` and a normaliser fitted on it."""
+    features = data.load("synthetic", fps=FPS, n_clips=1, seed=3)[0].features()
+    return features, data.Normalizer.fit(features)
+
+
+def normalised(features, normalizer) -> torch.Tensor:
+    x = torch.tensor(normalizer.normalize(features), dtype=torch.float32)
+    x[..., [0, 2]] = 0.0
+    return x
+
+
+def trained_like(config, normalizer, seed=0):
+    """A model whose couplings are no longer the identity, with ``normalizer``."""
+    torch.manual_seed(seed)
+    model = MoGlow(config)
+    model.normalizer = normalizer
+    model.loss(torch.randn(8, config.window, 66).index_fill_(-1, torch.tensor([0, 2]), 0.0))   # ActNorm's init
+    with torch.no_grad():
+        for network in model.flow.modules():
+            if hasattr(network, "output") and isinstance(network.output, torch.nn.Linear):
+                network.output.weight.normal_(0, 0.05)
+    return model.eval()
+
+
+def windows(features, normalizer, n=3, frames=16):
+    x = normalised(features, normalizer)
+    return torch.stack([x[17 * i:17 * i + frames] for i in range(n)])
+
+
+def test_off_by_default_and_the_same_model_without_it():
+    assert MoGlowConfig().foot_anchor is False
+    plain, explicit = MoGlow(SMALL), MoGlow(replace(SMALL, foot_anchor=False))
+    assert plain.state_dict().keys() == MoGlow(ANCHORED).state_dict().keys()     # checkpoints unchanged
+    assert not hasattr(plain, "foot_columns") and plain.describe() == explicit.describe()
+
+
+def test_a_planted_foot_has_no_residual(walker):
+    # the residual x_t - m is R(θ)^-1 of the foot's world step (contacts.foot_velocity / fps):
+    # 0 for a foot that stays put, the foot's whole step in the swing
+    features, normalizer = walker
+    model = MoGlow(ANCHORED)
+    model.normalizer = normalizer
+    x = normalised(features, normalizer)[None]
+    poses, control = x[..., model.modelled], x[..., model.control]
+    m = model.anchor(poses[:, :-1], control[:, :-1])
+    std = torch.tensor(normalizer.std[list(_FOOT_XZ)], dtype=torch.float32)
+    residual = ((poses[:, 1:, model.foot_columns] - m) * std).unflatten(-1, (2, len(FEET))).transpose(-1, -2)
+    velocity = contacts.foot_velocity(torch.tensor(features)[None], FPS)
+    assert torch.allclose(residual.norm(dim=-1).double(), velocity.norm(dim=-1) / FPS, atol=1e-5)
+    stance = contacts.contact_labels(torch.tensor(features)[None], FPS).bool()
+    assert stance.float().mean() > 0.3
+    assert residual.norm(dim=-1)[stance].median() < 1e-5                  # metres
+    assert residual.norm(dim=-1)[~stance].median() > 0.05
+
+
+def test_the_likelihood_stays_exact(walker):
+    # one predicted frame: its conditioning (the τ frames before it) is the same in both, so the
+    # anchored model's likelihood is the plain one's (same weights) of the frame shifted by m,
+    # computed here in metres: the shift adds nothing to the log-determinant
+    features, normalizer = walker
+    plain = trained_like(SMALL, normalizer)
+    anchored = MoGlow(ANCHORED)
+    anchored.load_state_dict(plain.state_dict())
+    anchored.normalizer = normalizer
+    anchored.eval()
+    x = windows(features, normalizer, frames=SMALL.history + 1)
+    in_units = torch.tensor(normalizer.denormalize(x.double().numpy()))
+    previous, control = in_units[:, -2, list(_FOOT_XZ)], in_units[:, -2, -3:]
+    theta = control[:, 2:3] / FPS
+    px, pz = previous[:, :4] - control[:, 1:2] / FPS, previous[:, 4:] - control[:, 0:1] / FPS
+    m = torch.cat([torch.cos(theta) * px - torch.sin(theta) * pz, torch.sin(theta) * px + torch.cos(theta) * pz], 1)
+    shifted = x.clone()
+    shifted[:, -1, list(_FOOT_XZ)] = ((in_units[:, -1, list(_FOOT_XZ)] - m) / torch.tensor(
+        normalizer.std[list(_FOOT_XZ)])).float()
+    assert torch.allclose(anchored.log_likelihood(x), plain.log_likelihood(shifted), atol=1e-3)
+    assert not torch.allclose(plain.log_likelihood(x), plain.log_likelihood(shifted), atol=1e-3)
+    nll = anchored.nll(windows(features, normalizer), normalizer)["bits/frame"]
+    assert np.isfinite(nll)
+
+
+def test_sampling_inverts_the_likelihoods_map_and_the_stream_follows(walker):
+    features, normalizer = walker
+    model = trained_like(ANCHORED, normalizer)
+    x = windows(features, normalizer)
+    history, control = x[:, :4], x[:, 4:, -3:]
+    noise = torch.randn(3, 12, 61, generator=torch.Generator().manual_seed(1))
+    sampled = model.sample(control, history, temperature=1.0, noise=noise)
+    window = torch.cat([history, sampled], dim=1)
+    poses, controls = window[..., model.modelled], window[..., model.control]
+    with torch.no_grad():                              # the flow's input: the feet less m (log_likelihood's)
+        target = model._anchored(poses[:, 4:], poses[:, 3:-1], controls[:, 3:-1], -1.0)
+        z, _ = model.flow(target, model.conditioning(poses, controls))
+    assert torch.allclose(z, noise, atol=1e-3)
+    streamed = model.stream(history, temperature=1.0).run(control, noise)
+    assert torch.allclose(streamed, sampled, atol=1e-4)
+
+
+def test_generate_makes_finite_motion(walker):
+    features, normalizer = walker
+    model = trained_like(ANCHORED, normalizer)
+    out = model.generate(features[10:50, -3:], prefix=features[:10], n=2, temperature=0.5)
+    assert out.features.shape == (2, 40, 66) and np.isfinite(out.features).all()
+    markov = trained_like(replace(ANCHORED, recurrent=False), normalizer)
+    assert np.isfinite(markov.generate(features[10:30, -3:], prefix=features[:10], temperature=0.0).features).all()
+
+
+def test_a_checkpoint_loads_back_with_its_shift(walker, tmp_path):
+    features, normalizer = walker
+    model = trained_like(ANCHORED, normalizer)
+    training.save_checkpoint(tmp_path / "anchored.pt", model, normalizer=normalizer, description={})
+    loaded = training.load_checkpoint(tmp_path / "anchored.pt").model.eval()
+    x = windows(features, normalizer)
+    assert loaded.config.foot_anchor and torch.allclose(loaded.log_likelihood(x), model.log_likelihood(x))
+
+
+def test_errors_name_foot_anchor(walker):
+    with pytest.raises(ValueError, match="foot_anchor"):
+        MoGlowConfig(foot_anchor=1)
+    with pytest.raises(ValueError, match="foot_anchor"):
+        MoGlowConfig(foot_anchor=True, constant_features=(0, 2, 3 * FEET[0]))
+    with pytest.raises(ValueError, match="foot_anchor"):
+        MoGlow(ANCHORED).loss(windows(*walker))                           # no normaliser to measure m in
