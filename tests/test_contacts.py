@@ -8,6 +8,8 @@ from motionlab import contacts, metrics, synthetic
 from motionlab import representation as rep
 from motionlab.skeleton import FEET, LOCOMOTION
 
+from conftest import cmu_files, requires_cmu
+
 FPS = 20.0
 ABOVE_HIPS = [j for j in range(LOCOMOTION.n_joints) if j not in {k for leg in contacts.LEGS for k in leg[1:]}]
 
@@ -251,3 +253,15 @@ def test_skating_ratio_and_foot_acceleration(walking):
 def test_bad_input_is_refused_naming_the_argument(walking, call, name):
     with pytest.raises(ValueError, match=name):
         call(walking)
+
+
+@requires_cmu
+def test_real_capture_is_labelled_and_locked_without_harm():
+    from motionlab import data
+    clips = data.load([str(p) for p in cmu_files()[:6]], fps=FPS)
+    for clip in clips:
+        labels = contacts.detect(clip.positions, FPS)
+        assert 0.15 < labels.mean() < 0.9, (clip.name, labels.mean())      # a runner's feet: about a quarter
+        locked = contacts.lock(clip.positions, FPS)
+        assert skating(locked.positions, None) <= 1.1 * skating(clip.positions, None), clip.name
+        assert locked.out_of_reach < 0.1
