@@ -62,6 +62,7 @@ checkpoints: setup
 	$(MOGLOW) --set dropout=0.0 --out data/checkpoints/moglow_no_dropout.pt
 	$(MOGLOW) --set recurrent=false --out data/checkpoints/moglow_markov.pt
 	$(MOGLOW) --set recurrent=false hidden=205 --out data/checkpoints/moglow_markov_matched.pt
+	$(MOGLOW) --set foot_anchor=true --out data/checkpoints/moglow_foot_anchor.pt
 	$(TRAIN) glow --synthetic-clips 200 --stride 1.0 --epochs 20 --lr 2e-3 --batch-size 32 --half \
 		--out data/checkpoints/glow.pt
 	$(TRAIN) dfn --synthetic-clips 120 --stride 0.5 --stage-epochs frame=10 sequence=10 dynamics=20 \

@@ -75,8 +75,8 @@ def samples_on(path: str, models: dict) -> tuple[np.ndarray, dict]:
     prefix, truth = walks[:, :comparison.PREFIX_FRAMES], walks[:, comparison.PREFIX_FRAMES:]
     out = {}
     for label, (entry, model) in models.items():
-        temperatures = sorted({*TEMPERATURES, entry.temperature}) if label in ("Glow", "MoGlow") else \
-            (entry.temperature,)
+        flow = hasattr(model, "nll")                      # an exact likelihood: Glow and the MoGlows
+        temperatures = sorted({*TEMPERATURES, entry.temperature}) if flow else (entry.temperature,)
         control = truth[0, :entry.window or truth.shape[1], N_POSE:]
         for t in temperatures:
             out[label, t] = comparison.respond(replace(entry, temperature=t), model, control, prefix, n=N)

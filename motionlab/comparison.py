@@ -64,10 +64,14 @@ ENTRIES = (Entry("vae", "VAE", "Motegi 2018", control=False, prefix=False, tempe
            Entry("vae_lstm", "VAE-LSTM", "Habibie 2017", control=True, prefix=False, temperature=1.0),
            Entry("glow", "Glow", "Henter 2020 §3", control=True, prefix=False, temperature=0.5, window=80),
            Entry("moglow", "MoGlow", "Henter 2020 §4", control=True, prefix=True, temperature=0.3),
+           Entry("moglow_foot_anchor", "MoGlow, anchored", "Henter 2020 §4, feet anchored", control=True, prefix=True,
+                 temperature=0.3),
            Entry("dfn", "DFN", "Chen 2020", control=False, prefix=True, temperature=1.0))
 """The models compared, in the course's order. Temperatures are the notebooks': MoGlow 0.3
 (notebook 06), Glow 0.5 (notebook 05), the others their model's own (1; the LSTM is
-deterministic)."""
+deterministic). "MoGlow, anchored" is MoGlow trained with its feet modelled relative to
+where they would be had they stayed planted (``MoGlowConfig.foot_anchor``: an exact
+likelihood still), the shipped recipe otherwise."""
 
 
 def evaluation_windows(source: str = "synthetic", stride_s: float = 1.0) -> np.ndarray:
@@ -168,7 +172,7 @@ def table_rows(models: dict, windows: np.ndarray, seed: int = 0, finish: bool = 
     :func:`motionlab.contacts.finish` (bones, then feet locked; the same measures, and
     ``out of reach``: the share of contacts the lock let go for reach); both then have
     ``planted speed (cm/s)`` (:func:`motionlab.contacts.planted_speed` over the contacts
-    detected on the raw samples)."""
+    detected on the raw samples), and so has the data's row (its own contacts)."""
     windows = np.asarray(windows, dtype=np.float64)
     judged = windows[:, PREFIX_FRAMES:]
     rest = metrics.foot_rest_heights(to_positions(judged, FPS))
@@ -182,6 +186,10 @@ def table_rows(models: dict, windows: np.ndarray, seed: int = 0, finish: bool = 
                 "foot acceleration (m/s²)": metrics.foot_acceleration(positions, FPS)}
 
     rows = {"data": {**row(judged), "pose error 1 s (cm)": 0.0, "pose error 3 s (cm)": 0.0}}
+    if finish:
+        data_positions = to_positions(judged, FPS)
+        rows["data"]["planted speed (cm/s)"] = 100 * contacts.planted_speed(
+            data_positions, FPS, contacts.detect(data_positions, FPS, rest))
     for label, out in held_out_samples(models, windows, seed).items():
         entry, model = models[label]
         pose_error = metrics.errors_by_frame(out, judged, FPS)[0]

@@ -32,24 +32,27 @@ CACHE = CHECKPOINTS.parent / "cache"
 """Where notebooks cache the models they train (ignored by git)."""
 
 MOGLOW_VARIANTS = {"dropout": {}, "no_dropout": {"dropout": 0.0}, "markov": {"recurrent": False},
-                   "markov_matched": {"recurrent": False, "hidden": 205}}
+                   "markov_matched": {"recurrent": False, "hidden": 205}, "foot_anchor": {"foot_anchor": True}}
 """The MoGlow models notebook 06 compares, as changes to a base config. ``markov_matched``
 is the Markov model widened to as many weights as the laptop LSTM model (803 k), for a
-fair comparison of the two at the laptop size."""
+fair comparison of the two at the laptop size. ``foot_anchor`` models each foot relative to
+where it would be had it stayed planted (``MoGlowConfig.foot_anchor``; notebook 08)."""
 
 NAMES = {"conv_ae": "conv_ae.pt", "vae": "vae.pt", "vae_lstm": "vae_lstm.pt",
          "vae_lstm_paper_objective": "vae_lstm_paper_objective.pt",
          "lstm_no_control": "lstm_no_control.pt", "lstm_control": "lstm_control.pt",
          "moglow": "moglow_dropout.pt", "moglow_no_dropout": "moglow_no_dropout.pt",
          "moglow_markov": "moglow_markov.pt", "moglow_markov_matched": "moglow_markov_matched.pt",
+         "moglow_foot_anchor": "moglow_foot_anchor.pt",
          "glow": "glow.pt", "dfn": "dfn.pt"}
 """Model name -> file in :data:`CHECKPOINTS`. ``"conv_ae"`` is Motegi's temporal conv
 autoencoder and ``"vae"`` his VAE on its features (loaded as one
 :class:`~motionlab.models.vae.MotionVAE`); ``"vae_lstm"`` is Habibie's model (with our free-running term),
 ``"vae_lstm_paper_objective"`` the same trained with eq. 5 alone, and ``"lstm_no_control"``
 / ``"lstm_control"`` the LSTM-3LR baselines of notebook 04, all with one budget. ``"moglow"``
-is MoGlow as the paper trains it (with history dropout, §5.3); the others are the
-variants of notebook 06. ``"glow"`` is Glow for 4-s windows given their control (notebook
+is MoGlow as the paper trains it (with history dropout, §5.3); ``"moglow_foot_anchor"`` the
+same with its feet anchored where they were planted; the others are the variants of notebook
+06. ``"glow"`` is Glow for 4-s windows given their control (notebook
 05), trained longer and on more clips than the notebook's live run. ``"dfn"`` is Dynamic
 Future Net (notebook 07), its three stages trained one after another."""
 
