@@ -12,7 +12,9 @@ Each model is trained by its recipe of ``make checkpoints`` (the Makefile; the c
 each loss), for each of ``--seeds`` (the command line's seed: the training clips and the
 first weights), ``--jobs`` trainings at a time in their own processes, their checkpoints and
 logs in ``--out`` (a checkpoint already there is reused). ``--epochs`` shortens the
-VAE-LSTM's 20 epochs, and DFN's 10 / 10 / 20 by the same fraction.
+VAE-LSTM's 20 epochs, and DFN's 10 / 10 / 20 and the conv AE's 40 by the same fraction.
+``--model conv_ae`` trains Motegi's conv autoencoder (notebook 03's recipe; its decoder is
+also the VAE's) and measures its reconstructions of the held-out windows.
 
 Then, per run, on the held-out built-in windows of notebook 08's table
 (``comparison.table_rows``: one sample per window, 3.5 s judged; the data's planted foot
@@ -48,7 +50,7 @@ FPS = comparison.FPS
 RECIPE_EPOCHS = 20
 """The VAE-LSTM's epochs in ``make checkpoints``; DFN's stages are scaled by ``--epochs / 20``."""
 DFN_STAGE_EPOCHS = {"frame": 10, "sequence": 10, "dynamics": 20}
-WEIGHTS = {"vae_lstm": (0.3, 1.0, 3.0, 10.0), "dfn": (0.03, 0.1, 0.3, 1.0)}
+WEIGHTS = {"vae_lstm": (0.3, 1.0, 3.0, 10.0), "dfn": (0.03, 0.1, 0.3, 1.0), "conv_ae": (0.1, 1.0)}
 """Default weights per model. On the shipped VAE-LSTM the term is 0.24 (m/s)² per
 reconstruction (the data's own planted feet: 0.005) beside a loss of 268 nats per frame, all
 but about 1.7 of it the likelihood's constant; at weight 1 its gradient on the decoder is
@@ -61,13 +63,13 @@ DFN_PREFIXES, DFN_SAMPLES, DFN_PREFIX_FRAMES, DFN_FUTURE_S = 8, 16, 10, 30.0   #
 
 @dataclass(frozen=True)
 class Run:
-    model: str                     # "vae_lstm" or "dfn"
+    model: str                     # "vae_lstm", "dfn" or "conv_ae"
     weight: float
     seed: int
 
     @property
     def label(self) -> str:
-        return {"vae_lstm": "VAE-LSTM", "dfn": "DFN"}[self.model]
+        return {"vae_lstm": "VAE-LSTM", "dfn": "DFN", "conv_ae": "conv AE"}[self.model]
 
     def checkpoint(self, out: Path, epochs: int) -> Path:
         return out / f"{self.model}_contact{self.weight:g}_seed{self.seed}_epochs{epochs}.pt"
@@ -78,6 +80,10 @@ class Run:
         if self.model == "vae_lstm":
             recipe = ["vae_lstm", "--synthetic-clips", "120", "--epochs", str(epochs), "--lr", "3e-3", "--half",
                       "--set", "observation_std=3.0", *weight]
+        elif self.model == "conv_ae":                 # Motegi's conv AE, notebook 03's (40 epochs: twice 20)
+            recipe = ["conv_ae", "--synthetic-clips", "100", "--stride", "1.0", "--normalization", "shared_pose",
+                      "--epochs", str(2 * epochs), "--lr", "2e-3", "--half",
+                      "--set", "depool=linear", "input_dropout=0.0", "l1=0.0", *weight]
         else:
             stages = [f"{stage}={max(1, round(n * epochs / RECIPE_EPOCHS))}" for stage, n in DFN_STAGE_EPOCHS.items()]
             recipe = ["dfn", "--synthetic-clips", "120", "--stride", "0.5", "--stage-epochs", *stages,
@@ -164,6 +170,31 @@ def dfn_claim(model, description: dict) -> claims.Verdict:
     return claims.diverse_futures(futures, trained.in_data_units(trained.train.windows), FPS, DFN_PREFIX_FRAMES)
 
 
+def conv_ae_row(run: Run, checkpoint, windows: np.ndarray, rest: np.ndarray) -> list[str]:
+    """The conv AE's row: its reconstructions of the held-out windows (pose along the windows'
+    own control), and notebook 02's claim (it beats the trivial reconstructions). Returns the
+    claim's failures."""
+    model, norm = checkpoint.model, checkpoint.model.normalizer
+    x = torch.tensor(norm.normalize(windows[:, :model.config.window]), dtype=torch.float32)
+    with torch.no_grad():
+        rebuilt = model.project(x)
+        term = float(contacts.contact_velocity_loss(norm.denormalize(torch.cat([rebuilt[..., :N_POSE], x[..., N_POSE:]],
+                                                                                -1)), norm.denormalize(x), FPS))
+    truth = windows[:, :model.config.window]
+    features = norm.denormalize(rebuilt.double().numpy())
+    features[..., N_POSE:] = truth[..., N_POSE:]
+    errors = {"conv AE": tuple(metrics.window_errors(features, truth, FPS).values())}
+    for name, trivial in experiments.trivial_reconstructions(truth, norm.mean).items():
+        errors[name] = tuple(metrics.window_errors(trivial, truth, FPS).values())
+    verdict = claims.beats_trivial_reconstructions(errors, "conv AE")
+    r = metrics.locomotion_report(features, FPS, rest)
+    print(f"| conv AE (reconstructions) | {run.weight:g} | {run.seed} | {checkpoint.history.seconds:.0f} | {term:.3f} "
+          f"| {100 * r['foot skating (m/s)']:.1f} | {locked_skating(features, rest):.1f} "
+          f"| pose {100 * errors['conv AE'][0]:.2f} | | | {100 * r['bone drift']:.2f} | n/a "
+          f"| {'holds' if verdict else 'fails'} |", flush=True)
+    return [f"conv AE, weight {run.weight:g}, seed {run.seed}: {why}" for why in verdict.failures]
+
+
 def measure(runs: list[Run], args: argparse.Namespace) -> None:
     windows = comparison.evaluation_windows("synthetic")
     judged = windows[:, comparison.PREFIX_FRAMES:]
@@ -187,6 +218,9 @@ def measure(runs: list[Run], args: argparse.Namespace) -> None:
         path = run.checkpoint(args.out, args.epochs)
         checkpoint = training.load_checkpoint(path)
         model = checkpoint.model
+        if run.model == "conv_ae":
+            failures += conv_ae_row(run, checkpoint, windows, rest)
+            continue
         models = {run.label: (entries[run.model], model)}
         rows = comparison.table_rows(models, windows)
         if data_row is None:
@@ -209,7 +243,8 @@ def measure(runs: list[Run], args: argparse.Namespace) -> None:
               f"| {r['leg swing (cm)'] / data_row['leg swing (cm)']:.2f} | {r['bone drift (%)']:.2f} | {nll} "
               f"| {'holds' if verdict else 'fails'} |", flush=True)
     print("\nThe VAE-LSTM's claim: steps steadily along walk and run for 10 s (claims.steps_steadily); "
-          "DFN's: diverse futures (claims.diverse_futures, §6.3).")
+          "DFN's: diverse futures (claims.diverse_futures, §6.3); the conv AE's: its reconstructions beat the "
+          "trivial ones (claims.beats_trivial_reconstructions, notebook 02; pose error in cm).")
     for line in failures:
         print(f"- {line}")
 

@@ -214,3 +214,34 @@ def test_checkpoints_keep_the_weight_and_older_ones_load_without_it(tmp_path, pr
     loaded = training.load_checkpoint(path)
     assert loaded.model.config == replace(model.config, contact_weight=0.0)
     assert training.load_checkpoint(path, config=replace(model.config, contact_weight=0.0))
+
+
+# ----------------------------------------------------------------------------------------
+# Motegi's conv autoencoder (and through its decoder, the VAE's samples)
+# ----------------------------------------------------------------------------------------
+
+def test_the_conv_autoencoders_contact_term(prepared):
+    from motionlab.models.conv_ae import ConvAEConfig, ConvAutoencoder
+
+    def model(weight: float) -> ConvAutoencoder:
+        torch.manual_seed(0)
+        m = ConvAutoencoder(ConvAEConfig(window=16, filters=8, width=5, input_dropout=0.0, contact_weight=weight))
+        m.normalizer = prepared.normalizer
+        return m
+
+    batch = prepared.train.windows[:8]
+    off, on = model(0.0), model(1.0)
+    plain = off.loss(batch)
+    assert set(plain) == {"loss", "mse"}                           # off: the old loss, nothing added
+    torch.manual_seed(1)
+    terms, grad = loss_and_decoder_grad(on, batch, on.decoder)
+    assert terms["contact"] > 0 and torch.isclose(terms["loss"], plain["loss"] + terms["contact"])
+    assert grad.abs().sum() > 0
+    steps = training.train(model(3.0), prepared, training.TrainConfig(epochs=3, lr=3e-3, progress=False))
+    assert steps.last("contact") < steps.train[0]["contact"]       # training lowers it
+    bare = model(1.0)
+    bare.normalizer = None
+    with pytest.raises(ValueError, match="contact_weight"):
+        bare.loss(batch)
+    with pytest.raises(ValueError, match="contact_weight"):
+        ConvAEConfig(contact_weight=-1.0)

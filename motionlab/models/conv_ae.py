@@ -23,7 +23,8 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from .. import checks
+from .. import checks, contacts
+from ..representation import N_POSE
 from .base import eval_mode
 
 
@@ -45,6 +46,9 @@ class ConvAEConfig:
             ``"linear"`` (interpolate) or ``"unpool"`` (put each value back where the max
             came from: only possible when decoding a window just encoded).
         l1: weight of the L1 penalty on the convolution weights (Holden: sparse filters).
+        contact_weight: weight of the foot-contact velocity term (HuMoR, EDGE, MDM; see
+            :meth:`ConvAutoencoder.loss`), per (m/s)² of planted-foot velocity; 0 = off (the
+            shipped model).
     """
 
     n_features: int = 66
@@ -56,9 +60,11 @@ class ConvAEConfig:
     input_noise: float = 0.0
     depool: str = "nearest"
     l1: float = 1e-5
+    contact_weight: float = 0.0
 
     def __post_init__(self):
-        checks.config(self, non_negative_fields=("input_noise", "l1"), probability_fields=("input_dropout",))
+        checks.config(self, non_negative_fields=("input_noise", "l1", "contact_weight"),
+                      probability_fields=("input_dropout",))
         if self.window % 2 or self.window < 2:
             raise ValueError(f"window: must be even and >= 2 (pooling halves it), got {self.window}")
         if self.width % 2 == 0:
@@ -171,11 +177,33 @@ class ConvAutoencoder(nn.Module):
 
     def loss(self, batch: torch.Tensor) -> dict[str, torch.Tensor]:
         """Mean squared reconstruction error (§III-B) plus Holden's L1 weight penalty, for a
-        ``batch`` ``(batch, even frames, n_features)``."""
+        ``batch`` ``(batch, even frames, n_features)``.
+
+        With ``contact_weight > 0``, plus that times the foot-contact velocity term (HuMoR,
+        EDGE, MDM; :func:`motionlab.contacts.contact_velocity_loss`): where the window's feet
+        are planted, their squared world velocity in the reconstructed pose moved along the
+        window's own control, in the data's units through ``model.normalizer`` (which
+        :func:`motionlab.training.train` sets). Logged as ``contact``."""
         self._check(batch, "batch")
-        reconstruction = F.mse_loss(self(batch), batch)
+        out = self(batch)
+        reconstruction = F.mse_loss(out, batch)
         l1 = self.encoder.weight.abs().sum() + self.decoder.weight.abs().sum()
-        return {"loss": reconstruction + self.config.l1 * l1, "mse": reconstruction}
+        terms = {"loss": reconstruction + self.config.l1 * l1, "mse": reconstruction}
+        if self.config.contact_weight > 0:
+            normalizer = getattr(self, "normalizer", None)
+            if normalizer is None:
+                raise ValueError("contact_weight: the contact term measures feet in the data's units and needs "
+                                 "model.normalizer (training.train sets it)")
+            pose = out[..., :N_POSE] if self.config.n_features == N_POSE + 3 else None
+            if pose is None:
+                raise ValueError(f"contact_weight: needs the {N_POSE + 3} locomotion features, "
+                                 f"got n_features={self.config.n_features}")
+            contact = contacts.contact_velocity_loss(
+                normalizer.denormalize(torch.cat([pose, batch[..., N_POSE:]], -1).float()),
+                normalizer.denormalize(batch.float()), self.config.fps)
+            terms["loss"] = terms["loss"] + self.config.contact_weight * contact
+            terms["contact"] = contact.detach()
+        return terms
 
     def trace(self, x: torch.Tensor) -> list[tuple[str, tuple[int, ...]]]:
         """The shape of ``x`` at every stage, for a walk-through of the architecture."""
