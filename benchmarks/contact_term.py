@@ -212,7 +212,11 @@ def measure(runs: list[Run], args: argparse.Namespace) -> None:
           "| after lock_feet (cm/s) | pose error 1 s / 3 s (cm) | stepping / data | leg swing / data "
           "| bone drift (%) | NLL bound (bits/frame) | paper's claim |")
     print("|" + "---|" * 13)
-    data_row = None
+    data_row = comparison.table_rows({}, windows)["data"]
+    own = float(contacts.contact_velocity_loss(judged_t, judged_t, FPS))
+    print(f"| data | | | | {own:.3f} | {data_row['foot skating (cm/s)']:.1f} "
+          f"| {locked_skating(judged, rest):.1f} | | {data_row['stepping (m/s)']:.2f} m/s "
+          f"| {data_row['leg swing (cm)']:.1f} cm | {data_row['bone drift (%)']:.2f} | | |")
     failures = []
     for run in runs:
         path = run.checkpoint(args.out, args.epochs)
@@ -223,12 +227,6 @@ def measure(runs: list[Run], args: argparse.Namespace) -> None:
             continue
         models = {run.label: (entries[run.model], model)}
         rows = comparison.table_rows(models, windows)
-        if data_row is None:
-            data_row = rows["data"]
-            own = float(contacts.contact_velocity_loss(judged_t, judged_t, FPS))
-            print(f"| data | | | | {own:.3f} | {data_row['foot skating (cm/s)']:.1f} "
-                  f"| {locked_skating(judged, rest):.1f} | | {data_row['stepping (m/s)']:.2f} m/s "
-                  f"| {data_row['leg swing (cm)']:.1f} cm | {data_row['bone drift (%)']:.2f} | | |")
         r = rows[run.label]
         sample = comparison.held_out_samples(models, windows)[run.label]
         verdict = vae_lstm_claim(model, presets) if run.model == "vae_lstm" else \
