@@ -201,9 +201,9 @@ def table_rows(models: dict, windows: np.ndarray, seed: int = 0, finish: bool = 
                        "parameters": float(weights(model)),
                        "training (min)": _training_minutes(model)}
         if finish:
-            done = contacts.finish(out, FPS, planted_height_m=rest)
-            labels = contacts.detect(to_positions(out, FPS), FPS, rest)
-            rows[label]["planted speed (cm/s)"] = 100 * contacts.planted_speed(to_positions(out, FPS), FPS, labels)
+            done, positions = contacts.finish(out, FPS, planted_height_m=rest), to_positions(out, FPS)
+            labels = contacts.detect(positions, FPS, rest)
+            rows[label]["planted speed (cm/s)"] = 100 * contacts.planted_speed(positions, FPS, labels)
             rows[label + FINISHED] = {**row(done.features), "out of reach": done.lock.out_of_reach,
                                       "planted speed (cm/s)": 100 * contacts.planted_speed(done.positions, FPS, labels)}
     return rows

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import checks
+from . import checks, metrics
 from .representation import along_path, to_positions
 from .skeleton import FEET, LOCOMOTION, Skeleton
 
@@ -117,13 +117,21 @@ def _per_foot_joint(value, name: str, positive: bool = True) -> np.ndarray:
     return np.broadcast_to(v, (len(FEET),)).astype(np.float64)
 
 
-def planted_heights(positions, percentile: float = 5.0) -> np.ndarray:
-    """How high each ankle and toe sits when planted, metres ``(4,)``: the ``percentile``-th
-    percentile of its height over all frames of ``positions`` ``(..., frames, 21, 3)``
-    (the same as ``metrics.foot_rest_heights``). Measure it on the data, and pass it for a
-    model's samples, so that feet that hover are not credited with a floor of their own."""
-    positions = _positions(positions)
-    return np.percentile(positions[..., FEET, 1].reshape(-1, len(FEET)), percentile, axis=0)
+def planted_heights(positions) -> np.ndarray:
+    """How high each ankle and toe sits when planted, metres ``(4,)``, over all frames of
+    ``positions`` ``(..., frames, 21, 3)``: :func:`motionlab.metrics.foot_rest_heights` of
+    the foot joints. Measure it on the data, and pass it for a model's samples, so that feet
+    that hover are not credited with a floor of their own."""
+    return metrics.foot_rest_heights(_positions(positions), FEET)
+
+
+def _contact_array(contacts, shape: tuple[int, ...]) -> np.ndarray:
+    """``contacts`` as booleans of exactly ``shape`` (..., 4), else ``ValueError``."""
+    contacts = np.asarray(contacts)
+    if contacts.shape != shape or contacts.dtype != bool:
+        raise ValueError(f"contacts: expected booleans of shape {shape} (ankle and toe of each foot), "
+                         f"got {contacts.dtype} {contacts.shape}")
+    return contacts
 
 
 # ----------------------------------------------------------------------------------------
@@ -196,10 +204,7 @@ def planted_speed(positions, fps: float, contacts) -> float:
     for (the skating measure also counts feet that are low but not planted)."""
     positions = _positions(positions)
     fps = checks.rate(fps, "fps")
-    contacts = np.asarray(contacts)
-    if contacts.shape != positions.shape[:-2] + (len(FEET),) or contacts.dtype != bool:
-        raise ValueError(f"contacts: expected booleans of shape {positions.shape[:-2] + (len(FEET),)}, "
-                         f"got {contacts.dtype} {contacts.shape}")
+    contacts = _contact_array(contacts, positions.shape[:-2] + (len(FEET),))
     speed = np.linalg.norm(np.diff(positions[..., FEET, :][..., [0, 2]], axis=-3), axis=-1) * fps
     held = contacts[..., 1:, :] & contacts[..., :-1, :]
     return float(speed[held].mean()) if held.any() else 0.0
@@ -332,11 +337,7 @@ class FootLock:
 
     def _contacts(self, contacts, single: bool) -> np.ndarray:
         contact = np.asarray(contacts)
-        contact = contact[None] if single and contact.ndim == 1 else contact
-        if contact.shape != (self.batch, 4) or contact.dtype != bool:
-            raise ValueError(f"contacts: expected booleans of shape ({self.batch}, 4), got "
-                             f"{contact.dtype} {contact.shape}")
-        return contact
+        return _contact_array(contact[None] if single and contact.ndim == 1 else contact, (self.batch, 4))
 
     def step(self, frame, contacts=None) -> np.ndarray:
         """One frame ``(batch, 21, 3)`` (or ``(21, 3)`` when ``batch`` is 1) in, the same
@@ -465,13 +466,8 @@ def lock(positions, fps: float, contacts=None, planted_height_m=None, blend_s: f
                          f"({int(np.ceil(blend * fps))} frames at {fps:g} fps) and at least 2")
     floor = planted_heights(positions) if planted_height_m is None else \
         _per_foot_joint(planted_height_m, "planted_height_m", positive=False)
-    if contacts is None:
-        contacts = detect(positions, fps, floor)
-    else:
-        contacts = np.asarray(contacts)
-        if contacts.shape != positions.shape[:-2] + (4,) or contacts.dtype != bool:
-            raise ValueError(f"contacts: expected booleans of shape {positions.shape[:-2] + (4,)} "
-                             f"(frames, then ankle and toe of each foot), got {contacts.dtype} {contacts.shape}")
+    contacts = detect(positions, fps, floor) if contacts is None else \
+        _contact_array(contacts, positions.shape[:-2] + (4,))
     flat = positions.reshape(-1, frames, LOCOMOTION.n_joints, 3)
     flat_contacts = contacts.reshape(-1, frames, 4)
     locker = FootLock(fps, len(flat), floor, blend_s=blend)
@@ -479,7 +475,7 @@ def lock(positions, fps: float, contacts=None, planted_height_m=None, blend_s: f
     for t in range(frames):
         out[:, t] = locker.step(flat[:, t], flat_contacts[:, t])
     foot = flat_contacts.reshape(len(flat), frames, 2, 2).any(-1)
-    started = int((foot[:, 0] | False).sum() + (foot[:, 1:] & ~foot[:, :-1]).sum())
+    started = int(foot[:, 0].sum() + (foot[:, 1:] & ~foot[:, :-1]).sum())      # contacts that began
     return Locked(out.reshape(positions.shape), contacts, locker.locked_frames / (2 * len(flat) * frames),
                   locker.reach_releases, started, locker.pivot_frames / max(locker.locked_frames, 1))
 

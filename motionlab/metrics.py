@@ -180,9 +180,11 @@ def skating_ratio(positions: np.ndarray, fps: float, rest_height_m=None) -> floa
     if positions.shape[-3] < 2:
         raise ValueError(f"positions: expected (..., frames >= 2, joints, 3), got {positions.shape}")
     toes = [FEET[1], FEET[3]]
-    rest = foot_rest_heights(positions, tuple(toes)) if rest_height_m is None else \
-        np.broadcast_to(checks.array(rest_height_m, "rest_height_m"), (len(FEET),))[[1, 3]] \
-        if np.size(rest_height_m) == len(FEET) else np.broadcast_to(checks.array(rest_height_m, "rest_height_m"), (2,))
+    if rest_height_m is None:
+        rest = foot_rest_heights(positions, tuple(toes))
+    else:                                        # one height, one per toe, or one per foot joint
+        rest = checks.array(rest_height_m, "rest_height_m").ravel()
+        rest = rest[[1, 3]] if rest.size == len(FEET) else np.broadcast_to(rest, (2,))
     feet = positions[..., toes, :]
     low = feet[..., 1] - rest < GMD_HEIGHT_M
     low = low[..., 1:, :] & low[..., :-1, :]

@@ -491,19 +491,20 @@ def plot_contacts(positions: np.ndarray, fps: float, contacts, joint: int = 1, a
     3)``; ``contacts`` ``(frames, 4)`` booleans (``motionlab.contacts.detect``); ``joint``
     indexes ``FEET`` (0 left ankle, 1 left toe, 2 right ankle, 3 right toe);
     ``thresholds`` ``(height m, speed m/s)`` are drawn as dotted lines. Returns the axes."""
+    from .contacts import planted_heights
     from .skeleton import FEET
     positions = checks.array(positions, "positions", ("frames", LOCOMOTION.n_joints, 3))
     fps = checks.rate(fps, "fps")
     contacts = np.asarray(contacts)
     if contacts.shape != (len(positions), len(FEET)):
         raise ValueError(f"contacts: expected ({len(positions)}, {len(FEET)}), got {contacts.shape}")
+    if checks.whole(joint, "joint", minimum=0) >= len(FEET):
+        raise ValueError(f"joint: expected 0-3 (an index into FEET), got {joint}")
     if axes is None:
         axes = plt.subplots(2, 1, figsize=(10, 4), sharex=True)[1]
-    j = FEET[checks.whole(joint, "joint", minimum=0)] if joint < len(FEET) else None
-    if j is None:
-        raise ValueError(f"joint: expected 0-3 (an index into FEET), got {joint}")
-    floor = np.percentile(positions[:, j, 1], 5) if planted_height_m is None else \
-        np.broadcast_to(planted_height_m, (len(FEET),))[joint]
+    j = FEET[joint]
+    floor = (planted_heights(positions) if planted_height_m is None else
+             np.broadcast_to(planted_height_m, (len(FEET),)))[joint]
     t = np.arange(len(positions)) / fps
     speed = np.linalg.norm(np.gradient(positions[:, j, [0, 2]], axis=0), axis=-1) * fps
     axes[0].plot(t, 100 * (positions[:, j, 1] - floor), label=label)

@@ -84,6 +84,21 @@ def generator_for(seed) -> torch.Generator:
     return torch.Generator().manual_seed(checks.whole(seed, "seed", 0))
 
 
+def contact_term(model, prediction: torch.Tensor, target: torch.Tensor, fps: float) -> torch.Tensor:
+    """:func:`motionlab.contacts.contact_velocity_loss` of a reconstruction against its data,
+    both normalised ``(batch, frames, 66)``, measured in the data's units through
+    ``model.normalizer`` (which :func:`motionlab.training.train` sets from the data before the
+    first step): the models train on normalised features, and a foot's world velocity only
+    exists in metres. Computed in float32 (under mixed precision too)."""
+    normalizer = getattr(model, "normalizer", None)
+    if normalizer is None:
+        raise ValueError(f"contact_weight: {type(model).__name__}'s contact term measures feet in the data's "
+                         "units and needs its normaliser; train with training.train on a MotionData "
+                         "(it sets model.normalizer) or set model.normalizer")
+    return contacts.contact_velocity_loss(normalizer.denormalize(prediction.float()),
+                                          normalizer.denormalize(target.float()), fps)
+
+
 class GenerativeModel:
     """Mixin for the models that generate: the checks and unit conversions of the contract.
 
@@ -152,17 +167,8 @@ class GenerativeModel:
             raise ValueError(f"prefix: {type(self).__name__} does not continue motion; it draws whole windows")
 
     def contact_term(self, prediction: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
-        """:func:`motionlab.contacts.contact_velocity_loss` of a reconstruction against its
-        data, both normalised ``(batch, frames, 66)``, measured in the data's units through
-        ``model.normalizer`` (which :func:`motionlab.training.train` sets from the data before
-        the first step): the models train on normalised features, and a foot's world
-        velocity only exists in metres. Computed in float32 (under mixed precision too)."""
-        if self.normalizer is None:
-            raise ValueError(f"contact_weight: {type(self).__name__}'s contact term measures feet in the data's "
-                             "units and needs its normaliser; train with training.train on a MotionData "
-                             "(it sets model.normalizer) or set model.normalizer")
-        return contacts.contact_velocity_loss(self.normalizer.denormalize(prediction.float()),
-                                              self.normalizer.denormalize(target.float()), self.fps)
+        """:func:`contact_term` of this model's reconstruction against its data."""
+        return contact_term(self, prediction, target, self.fps)
 
     def _result(self, normalised: torch.Tensor) -> Generated:
         """Normalised features ``(n, frames, 66)`` -> :class:`Generated` in the data's units."""

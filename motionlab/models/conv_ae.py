@@ -23,9 +23,9 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from .. import checks, contacts
+from .. import checks
 from ..representation import N_POSE
-from .base import eval_mode
+from .base import contact_term, eval_mode
 
 
 @dataclass(frozen=True)
@@ -190,17 +190,11 @@ class ConvAutoencoder(nn.Module):
         l1 = self.encoder.weight.abs().sum() + self.decoder.weight.abs().sum()
         terms = {"loss": reconstruction + self.config.l1 * l1, "mse": reconstruction}
         if self.config.contact_weight > 0:
-            normalizer = getattr(self, "normalizer", None)
-            if normalizer is None:
-                raise ValueError("contact_weight: the contact term measures feet in the data's units and needs "
-                                 "model.normalizer (training.train sets it)")
-            pose = out[..., :N_POSE] if self.config.n_features == N_POSE + 3 else None
-            if pose is None:
+            if self.config.n_features != N_POSE + 3:
                 raise ValueError(f"contact_weight: needs the {N_POSE + 3} locomotion features, "
                                  f"got n_features={self.config.n_features}")
-            contact = contacts.contact_velocity_loss(
-                normalizer.denormalize(torch.cat([pose, batch[..., N_POSE:]], -1).float()),
-                normalizer.denormalize(batch.float()), self.config.fps)
+            contact = contact_term(self, torch.cat([out[..., :N_POSE], batch[..., N_POSE:]], -1), batch,
+                                   self.config.fps)
             terms["loss"] = terms["loss"] + self.config.contact_weight * contact
             terms["contact"] = contact.detach()
         return terms
