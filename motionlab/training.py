@@ -10,8 +10,8 @@ worth logging (reconstruction error, KL, ...). Everything else lives here, once:
     save_checkpoint("conv_ae.pt", model, prepared)
 
 The loop: Adam (by default), a learning-rate schedule, gradient clipping, a progress bar
-(``tqdm.auto``: a widget in notebooks, text in terminals), validation after every epoch,
-seeding, a :class:`History` of every step, and a guard that stops with a clear message
+(:mod:`motionlab.progress`: one output redrawn in place in notebooks, tqdm in terminals),
+validation after every epoch, seeding, a :class:`History` of every step, and a guard that stops with a clear message
 the moment the loss stops being a finite number.
 """
 from __future__ import annotations
@@ -29,9 +29,8 @@ from typing import Any
 import numpy as np
 import torch
 from torch import nn
-from tqdm.auto import tqdm
 
-from . import checks
+from . import checks, progress
 
 CHECKPOINT_FORMAT = "motionlab-checkpoint-1"
 
@@ -326,8 +325,8 @@ def train(model: nn.Module, data, config: TrainConfig | None = None,
         seconds = seconds_per_step(model, batch.to(device), config)
         print(f"expected: {seconds:.3g} s per step on {device}, {_duration((total - run['step']) * seconds)} "
               f"for {total - run['step']} steps")
-    bar = tqdm(total=total, initial=run["step"], disable=not config.progress or rank > 0,
-               desc=type(model).__name__, unit="step")
+    bar = progress.bar(total, initial=run["step"], desc=type(model).__name__, unit="step",
+                       disable=not config.progress or rank > 0)
     began = last_save = time.perf_counter()
     seconds_before = history.seconds
     step, last_finite = run["step"], None

@@ -241,11 +241,17 @@ def animate(clips: np.ndarray | Sequence[np.ndarray], fps: float, titles: Sequen
     return anim
 
 
-def stills(anim: animation.FuncAnimation, n: int = 4, dpi: int = 50) -> np.ndarray:
+STILL_PANEL_PX = 280
+"""The height of one row of :func:`stills`, pixels: a body standing in a panel of
+:func:`animate` is then about 130 px tall, readable where no player runs."""
+
+
+def stills(anim: animation.FuncAnimation, n: int = 4, dpi: float | None = None) -> np.ndarray:
     """The static companion of an animation made by :func:`animate`: ``n`` of its frames,
     evenly spaced from the first to the last, stacked top to bottom, each labelled with its
     time. Returns an RGB image ``(height, width, 3)``, ``uint8`` (``n`` rows of the
-    animation's figure at ``dpi``).
+    animation's figure at ``dpi``; default: the dpi that makes a row :data:`STILL_PANEL_PX`
+    tall, whatever the panels' size).
 
     A reader without a running kernel (GitHub, nbviewer, an HTML export with JavaScript off)
     sees no frame of the JavaScript player; :func:`show` puts this picture below it."""
@@ -255,7 +261,8 @@ def stills(anim: animation.FuncAnimation, n: int = 4, dpi: int = 50) -> np.ndarr
         raise ValueError("anim: expected an animation made by viz.animate (it records its frames)")
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     fig = anim._fig
-    fig.set_dpi(checks.positive(dpi, "dpi"))
+    dpi = STILL_PANEL_PX / fig.get_size_inches()[1] if dpi is None else checks.positive(dpi, "dpi")
+    fig.set_dpi(dpi)
     canvas = FigureCanvasAgg(fig)                      # animate() closed its figure: draw off-screen
     picks = [frames[round(k)] for k in np.linspace(0, len(frames) - 1, min(n, len(frames)))]
     label = fig.text(0.005, 0.995, "", va="top", fontsize=14, weight="bold")   # readable at the stills' dpi
@@ -273,17 +280,18 @@ class Shown:
     """What :func:`show` returns: in a notebook, the JavaScript player and below it the
     still frames (:func:`stills`) as a PNG, two outputs a saved notebook keeps."""
 
-    def __init__(self, html: str, png: bytes):
-        self.html, self.png = html, png
+    def __init__(self, html: str, png: bytes, rows: int = 1):
+        self.html, self.png, self.rows = html, png, rows
 
     def _ipython_display_(self):
         from IPython.display import HTML, Image, display
         display(HTML(self.html))
-        display(Image(data=self.png, format="png"))
+        display(Image(data=self.png, format="png", metadata={"motionlab": {"rows": self.rows}}))
 
 
 def to_html(anim: animation.FuncAnimation, dpi: int = 72, frame_format: str = "jpeg") -> str:
-    """HTML with a play bar (matplotlib's ``to_jshtml``): works in notebooks, no ffmpeg.
+    """HTML with a play bar (matplotlib's ``to_jshtml``): works in notebooks, no ffmpeg, and
+    offline (its buttons are text, not a web font from a CDN).
 
     Frames are embedded as ``frame_format`` images at ``dpi``; JPEG at 72 dpi keeps a
     100-frame, three-panel animation near 1 MB, small enough to commit in a notebook.
@@ -298,7 +306,23 @@ def to_html(anim: animation.FuncAnimation, dpi: int = 72, frame_format: str = "j
     if first:
         src = first.group(1).replace("\\\n", "")              # the JS string's line continuations
         html = re.sub(r'<img id="(_anim_img\w+)">', lambda m: f'<img id="{m.group(1)}" src="{src}">', html, count=1)
-    return html
+    return _offline(html)
+
+
+# The player's buttons, drawn with text instead of the Font Awesome web font matplotlib's
+# player loads from a CDN (offline its buttons would be blank squares).
+PLAYER_GLYPHS = {"fa fa-minus": "\u2212", "fa fa-plus": "+", "fa fa-fast-backward": "|\u25c0\u25c0",
+                 "fa fa-step-backward": "|\u25c0", "fa fa-play fa-flip-horizontal": "\u25c0",
+                 "fa fa-pause": "\u2016", "fa fa-play": "\u25b6", "fa fa-step-forward": "\u25b6|",
+                 "fa fa-fast-forward": "\u25b6\u25b6|"}
+
+
+def _offline(html: str) -> str:
+    """``html`` of ``to_jshtml`` with nothing fetched from the network: the stylesheet link
+    removed and each icon replaced by its :data:`PLAYER_GLYPHS` text."""
+    html = re.sub(r'<link rel="stylesheet"\s+href="[^"]*font-awesome[^"]*">', "", html)
+    return re.sub(r'<i class="(fa [^"]+)"></i>',
+                  lambda m: PLAYER_GLYPHS.get(m.group(1), m.group(0)), html)
 
 
 def show(anim: animation.FuncAnimation, dpi: int = 72, still_frames: int = 4) -> Shown:
@@ -307,8 +331,9 @@ def show(anim: animation.FuncAnimation, dpi: int = 72, still_frames: int = 4) ->
     shows wherever the player cannot run."""
     import io
     buffer = io.BytesIO()
-    plt.imsave(buffer, stills(anim, still_frames), format="png")
-    return Shown(to_html(anim, dpi=dpi), buffer.getvalue())
+    picture = stills(anim, still_frames)
+    plt.imsave(buffer, picture, format="png")
+    return Shown(to_html(anim, dpi=dpi), buffer.getvalue(), rows=min(still_frames, len(anim.motion_frames)))
 
 
 def save_gif(anim: animation.FuncAnimation, path: str, fps: float | None = None, dpi: int = 72) -> None:

@@ -42,6 +42,9 @@ def test_animation_html_gif_and_frames(tmp_path):
     anim = viz.animate([walk, run], fps=20, titles=["walk", "run"], step=2)
     html = viz.to_html(anim)
     assert "<script" in html and "animation" in html.lower()
+    # offline: nothing fetched (no web font from a CDN), every button labelled with text
+    assert "http" not in html and "<link" not in html and 'class="fa' not in html
+    assert all(glyph in html for glyph in viz.PLAYER_GLYPHS.values())
     # the player shows its first frame before any script runs (JupyterLab before Play, nbviewer)
     first = re.search(r'frames\[0\] = "(data:image/jpeg;base64,[^"]+)"', html).group(1)
     src = re.search(r'<img id="_anim_img\w+" src="([^"]+)"', html).group(1)
@@ -85,6 +88,6 @@ def test_show_leaves_still_frames_beside_the_player():
     shown = viz.show(anim, still_frames=3)
     assert "<script" in shown.html
     still = Image.open(io.BytesIO(shown.png))
-    assert still.format == "PNG" and still.size[1] == 3 * round(anim._fig.get_size_inches()[1] * 50)   # stills' 50 dpi
+    assert still.format == "PNG" and still.size[1] == 3 * viz.STILL_PANEL_PX and shown.rows == 3
     with pytest.raises(ValueError, match="viz.animate"):
         viz.stills(object.__new__(type(anim)))
