@@ -596,6 +596,53 @@ def walked_control(control: np.ndarray, fps: float, body: Body | None = None,
     return to_features(generate(control, fps, body, style).positions, fps)[:, CONTROL]
 
 
+# The wobble of walked_control, measured on the synthetic walker at steady speeds: the hips'
+# sideways velocity and turning rate swing once per stride (forward velocity barely moves),
+# the turn leading the sway; amplitudes at walking / running.
+WOBBLE_SIDEWAYS_MS = (0.125, 0.07)
+WOBBLE_TURNING_RADS = (0.038, 0.011)
+WOBBLE_TURN_LEAD_RAD = (2.0, 1.1)
+
+
+class StrideWobble:
+    """:func:`walked_control`'s stride-by-stride wobble, made causally: one control frame in,
+    the same with the sway of a stride added, using nothing from later frames. What a live
+    controller (a keyboard) feeds a model that reads step timing from the wobble.
+
+    Each frame advances the stride phase by the walker's cadence at that speed
+    (:func:`cadence_steps_per_s`, half a stride per step), and adds to the sideways
+    velocity and turning rate a sine of that phase with the amplitudes of
+    :data:`WOBBLE_SIDEWAYS_MS` and :data:`WOBBLE_TURNING_RADS` (blended from walking to
+    running as :func:`gait_timing` blends them), faded out towards standing.
+
+    >>> wobble = StrideWobble(fps=20)
+    >>> frame = wobble.step(np.array([1.3, 0.0, 0.0]))     # walking forward, swaying
+    """
+
+    def __init__(self, fps: float, style: Style | None = None):
+        self.fps = checks.rate(fps, "fps")
+        self.style = style or Style()
+        self.reset()
+
+    def reset(self) -> None:
+        self.phase = 0.0                                   # strides so far
+
+    def step(self, control) -> np.ndarray:
+        control = checks.array(control, "control", (3,))
+        forward, sideways, turning = control
+        planar = float(np.hypot(forward, sideways))
+        running = float(_smoothstep((forward - self.style.run_speed + 0.3) / 0.6))
+        active = float(_smoothstep(max(planar / 0.5, abs(turning) / 0.8)))
+        blend = lambda pair: pair[0] + (pair[1] - pair[0]) * running          # noqa: E731
+        angle = 2 * np.pi * self.phase
+        out = control.copy()
+        out[1] += active * blend(WOBBLE_SIDEWAYS_MS) * np.sin(angle)
+        out[2] += active * blend(WOBBLE_TURNING_RADS) * np.sin(angle + blend(WOBBLE_TURN_LEAD_RAD))
+        cadence = self.style.cadence * float(cadence_steps_per_s(np.array(planar), np.array(running)))
+        self.phase = (self.phase + cadence / 2 / self.fps) % 1.0
+        return out
+
+
 def random_motion(duration_s: float = 10.0, fps: float = 20.0, seed: int = 0,
                   body: Body | None = None, style: Style | None = None) -> Motion:
     """A clip with a random control trajectory, body and style, all drawn from ``seed``."""

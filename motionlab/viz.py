@@ -591,3 +591,36 @@ def plot_leg(before: np.ndarray, after: np.ndarray, leg: int = 0, ax=None, targe
     ax.set_aspect("equal", adjustable="datalim")
     ax.legend(fontsize=8)
     return ax
+
+
+def plot_live_run(run: dict, fps: float, n: int = 4, title: str | None = None):
+    """The still of a steered live run (:func:`motionlab.live.record`): ``n`` poses in the
+    panel's three-quarter view, evenly spaced in time and each labelled with its time and
+    what was held down, and the path seen from above with the footprints the toes left and
+    where each pose stood. Returns the figure (about 1300×330 px at 100 dpi)."""
+    positions = checks.array(run.get("positions"), "run['positions']", ("frames", LOCOMOTION.n_joints, 3))
+    fps = checks.rate(fps, "fps")
+    n = checks.whole(n, "n")
+    picks = np.linspace(0, len(positions) - 1, n).round().astype(int)
+    fig = plt.figure(figsize=(3.0 * n + 4.0, 3.6))
+    for k, frame in enumerate(picks):
+        ax = fig.add_subplot(1, n + 1, k + 1, projection="3d")
+        held = run.get("intents", [()] * len(positions))[frame]
+        plot_skeleton(positions[frame], ax=ax, title=f"t = {frame / fps:.1f} s\n{' + '.join(held) or 'let go'}")
+        ax.view_init(elev=20, azim=-60)
+    ax = fig.add_subplot(1, n + 1, n + 1)
+    hips = positions[:, 0]
+    ax.plot(hips[:, 2], hips[:, 0], color="tab:green", lw=1.5, label="path")
+    prints = np.array(run.get("footprints") or np.zeros((0, 2)), dtype=float).reshape(-1, 2)
+    ax.plot(prints[:, 1], prints[:, 0], "s", ms=4, color="0.35", label="footprints")
+    ax.plot(hips[picks, 2], hips[picks, 0], "o", color="k", ms=5, label="poses shown")
+    ax.set_xlabel("z (m)")
+    ax.set_ylabel("x (m)")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.grid(True, color="0.9")
+    ax.set_title("seen from above")
+    ax.legend(fontsize=7, loc="best")
+    if title:
+        fig.suptitle(title, fontsize=10)
+    fig.tight_layout(rect=(0, 0, 1, 0.92 if title else 1))
+    return fig

@@ -1,0 +1,103 @@
+"""The live steering panel's loop, headless: what a student's browser would receive.
+
+    python benchmarks/live.py              # laptop size (the shipped MoGlow) and paper size, 20 s each
+    python benchmarks/live.py --seconds 60
+
+Drives :class:`motionlab.live.Loop` (the panel's own thread and schedule) with a scripted
+control sequence (walk, turn left, walk, let go; :data:`motionlab.live.SCRIPT`, repeated),
+delivering each frame to a function that serialises it as the panel does, and prints per
+model size and weight precision: frames/s delivered, the 50th and 99th percentile interval
+between frames, the time from a control change to the first frame generated after it, and
+wall and CPU milliseconds per frame. Paper size (§5.2: K = 16, 2 LSTM layers of 512,
+τ = 10) is an untrained model of that shape (speed does not depend on the weights), in
+float32 and, where the CPU has native bfloat16, bfloat16.
+
+Targets (reported, not asserted): laptop size >= 19.5 frames/s at 20 fps with a
+99th-percentile interval <= 75 ms and control -> frame <= 100 ms; paper size with
+bfloat16 >= 20 frames/s where the CPU has native bfloat16.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import time
+
+import numpy as np
+import torch
+
+from motionlab import live, pretrained
+from motionlab.cpu import native_bfloat16
+from motionlab.models.moglow import MoGlow, MoGlowConfig
+
+
+def scripted(seconds: float, fps: float):
+    """The intents held at each frame of ``seconds`` of :data:`live.SCRIPT`, repeated."""
+    frames = [held for span, held in live.SCRIPT for _ in range(int(round(span * fps)))]
+    return [set(frames[k % len(frames)]) for k in range(int(seconds * fps))]
+
+
+def drive(character: live.LiveCharacter, seconds: float) -> dict:
+    """Run the panel's loop on ``character`` for ``seconds``, changing the intents on the
+    script's schedule from this (the 'browser') thread, as key events would."""
+    fps = character.fps
+    plan = scripted(seconds, fps)
+    held = {"now": set()}
+    sent = []
+    loop = live.Loop(lambda: character.tick(held["now"]), lambda tick: sent.append(json.dumps(
+        {"p": np.round(tick.positions, 3).reshape(-1).tolist(), "c": tick.contact.astype(int).tolist()})), fps)
+    loop.window = len(plan) + 10                              # keep every interval
+    loop.reset_stats()
+    changes = 0
+    loop.start()
+    began = time.perf_counter()
+    for k, intents in enumerate(plan):
+        due = began + k / fps + 0.5 / fps                    # key events half-way between frames
+        time.sleep(max(0.0, due - time.perf_counter()))
+        if intents != held["now"]:
+            held["now"] = intents
+            loop.changed()
+            changes += 1
+    time.sleep(2 / fps)
+    loop.stop()
+    if loop.error:
+        raise RuntimeError(loop.error)
+    stats = loop.stats()
+    stats["control to frame p99 (ms)"] = float(np.percentile(loop.latencies, 99)) if loop.latencies else float("nan")
+    stats["changes"] = changes
+    return stats
+
+
+def paper_model(normalizer) -> MoGlow:
+    torch.manual_seed(0)
+    model = MoGlow(MoGlowConfig.paper()).eval()
+    model.normalizer = normalizer
+    return model
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--seconds", type=float, default=20.0)
+    args = parser.parse_args(argv)
+    laptop = pretrained.load("moglow")
+    rows = [("laptop (shipped)", laptop, torch.float32)]
+    if native_bfloat16():
+        rows.append(("laptop (shipped)", laptop, torch.bfloat16))
+    paper = paper_model(laptop.normalizer)
+    rows.append(("paper size (untrained)", paper, torch.float32))
+    if native_bfloat16():
+        rows.append(("paper size (untrained)", paper, torch.bfloat16))
+    print(f"torch {torch.__version__}, {torch.get_num_threads()} threads, native bfloat16: {native_bfloat16()}; "
+          f"{args.seconds:g} s per row at 20 fps\n")
+    print("| model | weights | frames/s delivered | interval p50 / p99 (ms) | control → frame, last / p99 (ms) "
+          "| ms per frame (wall / CPU) |")
+    print("|---|---|---|---|---|---|")
+    for label, model, weights in rows:
+        character = live.LiveCharacter(model, weights=weights)
+        s = drive(character, args.seconds)
+        print(f"| {label} | {str(weights).replace('torch.', '')} | {s['fps']:.2f} | {s['interval p50 (ms)']:.1f} / "
+              f"{s['interval p99 (ms)']:.1f} | {s['control to frame (ms)']:.1f} / {s['control to frame p99 (ms)']:.1f} "
+              f"| {s['ms per frame']:.2f} / {s['cpu ms per frame']:.2f} |")
+
+
+if __name__ == "__main__":
+    main()
