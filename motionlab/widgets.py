@@ -47,6 +47,24 @@ class _Panel:
         plt.close(fig)
 
 
+def _player(fps: float):
+    """The canvas that plays a panel's motion (:class:`motionlab.live.ClipPlayer`)."""
+    from .live import ClipPlayer
+    return ClipPlayer(fps=fps)
+
+
+def _redraw(panel, features: np.ndarray, title: str) -> None:
+    """Play ``features`` on ``panel.player`` and draw their still figure in ``panel.output``
+    (the motion is computed once for both)."""
+    from .representation import to_positions
+    panel.player.show(to_positions(features, panel.fps), title)
+    with panel.output:
+        clear_output(wait=True)
+        fig = viz.plot_motion(features, panel.fps, title=title)
+        display(fig)
+        plt.close(fig)
+
+
 class ClipBrowser(_Panel):
     """A clip picker and a frame slider over :func:`viz.plot_frame`.
 
@@ -89,8 +107,9 @@ class LatentSliders(_Panel):
 
     Each slider sets one axis as a cumulative probability of the prior N(0, 1), from 0.1
     to 0.9 as in the paper, mapped through the inverse normal CDF; the other axes come from
-    a random sample picked by ``sample``. The figure is :func:`viz.plot_motion` of the
-    decoded motion.
+    a random sample picked by ``sample``. When a slider moves, the decoded window plays as
+    motion on the canvas of :class:`motionlab.live.ClipPlayer` (the kernel sends its frames
+    once; the browser loops them) above :func:`viz.plot_motion` of it, the still figure.
 
     Args:
         decode: latents ``(n, latent)`` -> motion features ``(n, frames, 66)``.
@@ -109,11 +128,12 @@ class LatentSliders(_Panel):
                         for a in self.axes]
         self.sample = widgets.BoundedIntText(value=sample, min=0, max=10 ** 6, description="sample")
         self.output = widgets.Output()
+        self.player = _player(fps)
         for control in [*self.sliders, self.sample]:
             control.observe(lambda change: self.redraw(), names="value")
         self.widget = widgets.VBox([widgets.HBox([self.sample]),
                                     widgets.GridBox(self.sliders, layout=widgets.Layout(
-                                        grid_template_columns="repeat(3, 33%)")), self.output])
+                                        grid_template_columns="repeat(3, 33%)")), self.player, self.output])
 
     def latent_vector(self, probabilities: Sequence[float] | None = None,
                       sample: int | None = None) -> torch.Tensor:
@@ -126,12 +146,20 @@ class LatentSliders(_Panel):
         z[self.axes] = torch.distributions.Normal(0.0, 1.0).icdf(torch.tensor(probabilities, dtype=torch.float32))
         return z
 
+    def motion(self, probabilities: Sequence[float] | None = None, sample: int | None = None) -> tuple:
+        """``(features (frames, 66), title)`` decoded for these slider values."""
+        z = self.latent_vector(probabilities, sample)
+        motion = np.asarray(self.decode(z[None])[0])
+        values = ", ".join(f"z[{a}]={v:+.2f}" for a, v in zip(self.axes, z[self.axes].tolist()))
+        return motion, f"sample {self.sample.value if sample is None else sample}: {values}"
+
     def figure(self, probabilities: Sequence[float] | None = None, sample: int | None = None):
         """The decoded motion for these slider values (headless: pass them in)."""
-        z = self.latent_vector(probabilities, sample)
-        motion = self.decode(z[None])[0]
-        values = ", ".join(f"z[{a}]={v:+.2f}" for a, v in zip(self.axes, z[self.axes].tolist()))
-        return viz.plot_motion(motion, self.fps, title=f"sample {self.sample.value if sample is None else sample}: {values}")
+        features, title = self.motion(probabilities, sample)
+        return viz.plot_motion(features, self.fps, title=title)
+
+    def redraw(self) -> None:
+        _redraw(self, *self.motion())
 
 
 class ControlPanel(_Panel):
@@ -141,8 +169,9 @@ class ControlPanel(_Panel):
     side-step, backwards, ...) or ``"sliders"``: constant forward speed, sideways speed and
     turning rate from the three sliders, reached from standing over the first second. The
     path goes through :func:`motionlab.synthetic.walked_control` when ``walked`` is true
-    (the stride wobble the models read their step timing from). The figure is
-    :func:`viz.plot_motion` of the generated motion; with "animate" ticked, an animation.
+    (the stride wobble the models read their step timing from). Each change generates the
+    motion once; it plays on the canvas of :class:`motionlab.live.ClipPlayer` (the browser
+    loops it) above :func:`viz.plot_motion` of it, the still figure.
 
     Args:
         generate: ``generate(control, seed)``: control ``(frames, 3)`` in m/s and rad/s ->
@@ -164,12 +193,13 @@ class ControlPanel(_Panel):
         self.sideways = widgets.FloatSlider(value=0.0, min=-1.0, max=1.0, description="left m/s", **slider)
         self.turning = widgets.FloatSlider(value=0.0, min=-1.5, max=1.5, description="turn rad/s", **slider)
         self.seed = widgets.BoundedIntText(value=0, min=0, max=10 ** 6, description="seed")
-        self.animated = widgets.Checkbox(value=False, description="animate")
         self.output = widgets.Output()
-        for control in (self.preset, self.forward, self.sideways, self.turning, self.seed, self.animated):
+        self.player = _player(fps)
+        for control in (self.preset, self.forward, self.sideways, self.turning, self.seed):
             control.observe(lambda change: self.redraw(), names="value")
-        self.widget = widgets.VBox([widgets.HBox([self.preset, self.seed, self.animated]),
-                                    widgets.HBox([self.forward, self.sideways, self.turning]), self.output])
+        self.widget = widgets.VBox([widgets.HBox([self.preset, self.seed]),
+                                    widgets.HBox([self.forward, self.sideways, self.turning]), self.player,
+                                    self.output])
 
     def control(self, preset: str | None = None, forward: float | None = None, sideways: float | None = None,
                 turning: float | None = None) -> np.ndarray:
@@ -210,11 +240,4 @@ class ControlPanel(_Panel):
         return viz.animate(positions, self.fps, titles=[self._title(seed, settings)], step=step)
 
     def redraw(self) -> None:
-        if not self.animated.value:
-            return super().redraw()
-        from IPython.display import HTML
-        with self.output:
-            clear_output(wait=True)
-            anim = self.animation()
-            display(HTML(viz.to_html(anim)))
-            plt.close(anim._fig)
+        _redraw(self, self.motion(), self._title(None, {}))

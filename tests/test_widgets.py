@@ -44,6 +44,9 @@ def test_latent_sliders_map_probabilities_and_render_headless(clips):
     plt.close(fig)
     sliders.sliders[0].value = 0.2                        # the callback decodes and redraws
     assert len(decoded) == 2 and decoded[-1][0, 1] == pytest.approx(-0.8416, abs=1e-3)
+    # decoded once per move, and the canvas got the window's frames to play (63 numbers each)
+    assert len(sliders.player.clip) == len(clips[0].features()) and len(sliders.player.clip[0]) == 63
+    assert sliders.player.title.startswith("sample 0: z[1]=-0.84")
     with pytest.raises(ValueError, match="axes"):
         widgets.LatentSliders(decode, latent=6, axes=[6], fps=20)
     with pytest.raises(ValueError, match="probabilities: expected 2 values"):
@@ -75,6 +78,9 @@ def test_control_panel_builds_controls_and_renders_headless(monkeypatch):
     monkeypatch.setattr(panel, "redraw", lambda: redraws.append(panel.preset.value))
     panel.preset.value = "run"
     assert redraws == ["run"]
+    monkeypatch.undo()
+    panel.preset.value = "circle"                          # generated once, played on the canvas
+    assert len(panel.player.clip) == 60 and panel.player.title == "circle, seed 0"
     walked = widgets.ControlPanel(generate, fps=20.0, duration_s=3.0).control(preset="walk")
     assert walked[-20:, 1].std() > 0.02 > sliders[-20:, 1].std()      # the walker's sway, not a flat line
     anim = panel.animation(preset="stand still", step=4)
