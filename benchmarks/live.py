@@ -2,6 +2,7 @@
 
     python benchmarks/live.py              # laptop size (the shipped MoGlow) and paper size, 20 s each
     python benchmarks/live.py --seconds 60
+    python benchmarks/live.py --browser 60 # the panel in JupyterLab in headless Chromium (selenium)
 
 Drives :class:`motionlab.live.Loop` (the panel's own thread and schedule) with a scripted
 control sequence (walk, turn left, walk, let go; :data:`motionlab.live.SCRIPT`, repeated),
@@ -11,6 +12,11 @@ between frames, the time from a control change to the first frame generated afte
 wall and CPU milliseconds per frame. Paper size (§5.2: K = 16, 2 LSTM layers of 512,
 τ = 10) is an untrained model of that shape (speed does not depend on the weights), in
 float32 and, where the CPU has native bfloat16, bfloat16.
+
+With ``--browser SECONDS`` it runs the panel as a student does instead (benchmarks/lab_browser.py:
+JupyterLab in headless Chromium, keys pressed by selenium on the same script) and prints what
+the browser received: frames/s, frame intervals, and each key change to the first frame
+generated after the kernel saw it, measured in the page.
 
 Targets (reported, not asserted): laptop size >= 19.5 frames/s at 20 fps with a
 99th-percentile interval <= 75 ms and control -> frame <= 100 ms; paper size with
@@ -74,10 +80,65 @@ def paper_model(normalizer) -> MoGlow:
     return model
 
 
+KEY = {"forward": "ARROW_UP", "left": "ARROW_LEFT", "right": "ARROW_RIGHT", "back": "ARROW_DOWN"}
+
+
+def browser(seconds: float) -> None:
+    """The panel in JupyterLab in headless Chromium, steered by :data:`live.SCRIPT`'s keys."""
+    import lab_browser
+    from selenium.webdriver.common.action_chains import ActionChains
+    from selenium.webdriver.common.keys import Keys
+    why = lab_browser.available()
+    if why:
+        raise SystemExit(f"--browser: {why}")
+    cells = ["from motionlab import live\npanel = live.SteeringPanel()\npanel",
+             "print({k: round(float(v), 3) for k, v in panel.loop.stats().items()})"]
+    with lab_browser.Lab({"live.ipynb": cells}) as lab:
+        lab.run_cells(1)
+        lab.wait_idle()
+        d = lab.driver
+        box = d.find_element("css selector", ".motionlab-live")
+        box.find_element("xpath", ".//button[contains(., 'start')]").click()
+        box.find_element("css selector", "canvas").click()
+        time.sleep(1.0)
+        d.execute_script("const r = document.querySelector('.motionlab-live').motionlab; "
+                         "r.arrivals.length = 0; r.latencies.length = 0;")
+        began, held = time.perf_counter(), set()
+        plan = scripted(seconds, 20.0)
+        for k, intents in enumerate(plan):
+            time.sleep(max(0.0, began + k / 20.0 - time.perf_counter()))
+            for name in held - intents:
+                ActionChains(d).key_up(getattr(Keys, KEY[name])).perform()
+            for name in intents - held:
+                ActionChains(d).key_down(getattr(Keys, KEY[name])).perform()
+            held = set(intents)
+        for name in held:
+            ActionChains(d).key_up(getattr(Keys, KEY[name])).perform()
+        arrivals, latencies = d.execute_script("const r = document.querySelector('.motionlab-live').motionlab; "
+                                               "return [r.arrivals, r.latencies];")
+        lab.run_cell(1)
+        lab.wait_idle()
+        kernel = lab.outputs(1)
+    arrivals, latencies = np.array(arrivals), np.array(latencies)
+    intervals = np.diff(arrivals)
+    print(f"The panel in JupyterLab, headless Chromium, {seconds:g} s of scripted keys "
+          f"({len(latencies)} key changes answered)\n")
+    print("| frames/s received | interval p50 / p99 / max (ms) | key → frame p50 / p99 / max (ms) |")
+    print("|---|---|---|")
+    print(f"| {1000 * (len(arrivals) - 1) / (arrivals[-1] - arrivals[0]):.2f} | "
+          f"{np.percentile(intervals, 50):.1f} / {np.percentile(intervals, 99):.1f} / {intervals.max():.1f} | "
+          f"{np.percentile(latencies, 50):.0f} / {np.percentile(latencies, 99):.0f} / {latencies.max():.0f} |")
+    print(f"\nthe kernel's loop: {kernel}")
+
+
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--seconds", type=float, default=20.0)
+    parser.add_argument("--browser", type=float, default=None, metavar="SECONDS",
+                        help="run the panel in JupyterLab in headless Chromium for SECONDS instead")
     args = parser.parse_args(argv)
+    if args.browser:
+        return browser(args.browser)
     laptop = pretrained.load("moglow")
     rows = [("laptop (shipped)", laptop, torch.float32)]
     if native_bfloat16():

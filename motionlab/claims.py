@@ -338,6 +338,62 @@ def follows_speed(speeds, stepping, data_stepping, name: str = "model") -> Verdi
     return verdict
 
 
+FOLLOWS_KEYS = {"walk": 0.7, "settle (s)": 1.0, "stopped for (s)": 0.5}
+"""Live steering (:mod:`motionlab.live`): held forward, after its first second the body
+steps at least 70 % as fast as the data walking at that speed (§5.3's measure); let go,
+from a second later it steps slower than ``FOLLOWS_CONTROL["stopped (m/s)"]`` for half a
+second."""
+
+
+def follows_keys(steered: dict, data: np.ndarray, fps: float, name: str = "live character") -> Verdict:
+    """The keys steer the character (:data:`FOLLOWS_KEYS`), measured on the last stretch in
+    which ``"forward"`` was held.
+
+    A character that ignores the keys fails: it never walks, or it walks on after the key
+    is let go; so does one whose steps fade while the key is held.
+
+    Args:
+        steered: ``{"positions": (frames, 21, 3), "intents": [per frame: what was held]}``
+            (:meth:`motionlab.live.SteeringPanel.steered`, :func:`motionlab.live.record`).
+        data: features ``(n, frames, 66)`` of bodies walking the walk preset (the speed
+            "forward" asks for), e.g. :func:`motionlab.experiments.preset_walks`.
+        fps: frames per second.
+    """
+    fps = checks.rate(fps, "fps")
+    positions = checks.array(steered.get("positions"), "steered['positions']", ("frames", 21, 3))
+    intents = steered.get("intents")
+    if intents is None or len(intents) != len(positions):
+        raise ValueError(f"steered['intents']: expected one entry per frame ({len(positions)})")
+    data = _features(data, "data")
+    from .representation import to_features
+    held = np.array(["forward" in i for i in intents])
+    stepping = metrics.stepping_speed(to_features(positions, fps), fps, smooth_s=0.1)
+    data_walk = float(metrics.stepping_speed(data, fps, smooth_s=0.1)[..., int(2 * fps):].mean())
+    verdict = Verdict(f"{name}: held forward it walks, let go it stops")
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], held.astype(int), [0]])))
+    if len(edges) < 2:
+        verdict.require(False, "forward was never held")
+        return verdict
+    begin, end = edges[-2], edges[-1]
+    settle, stopped = int(round(FOLLOWS_KEYS["settle (s)"] * fps)), int(round(FOLLOWS_KEYS["stopped for (s)"] * fps))
+    walking = stepping[begin + settle:end]
+    after = stepping[end + settle:end + settle + stopped]
+    if len(walking) < 5 or len(after) < stopped:
+        verdict.require(False, f"forward held {(end - begin) / fps:.1f} s and the motion goes on "
+                               f"{(len(positions) - end) / fps:.1f} s after: too short to measure "
+                               f"(need > {FOLLOWS_KEYS['settle (s)'] + 0.25:g} s and "
+                               f"{FOLLOWS_KEYS['settle (s)'] + FOLLOWS_KEYS['stopped for (s)']:g} s)")
+        return verdict
+    ratio, still = float(walking.mean() / data_walk), float(after.max())
+    verdict.figures["held: stepping / the data's walking"] = ratio
+    verdict.figures[f"let go, from {FOLLOWS_KEYS['settle (s)']:g} s: stepping, max (m/s)"] = still
+    verdict.require(ratio >= FOLLOWS_KEYS["walk"], f"held forward, steps at {100 * ratio:.0f} % of the data's "
+                                                   f"(need >= {100 * FOLLOWS_KEYS['walk']:.0f} %)")
+    bound = FOLLOWS_CONTROL["stopped (m/s)"]
+    verdict.require(still < bound, f"let go, still steps at up to {still:.2f} m/s a second later (need < {bound:g})")
+    return verdict
+
+
 def keeps_moving(samples: np.ndarray, data: np.ndarray, fps: float, name: str = "long samples") -> Verdict:
     """Long samples do not freeze into a static pose (MoGlow §5.3): in every
     ``KEEPS_MOVING["chunk (s)"]`` seconds their pose spread (:func:`motionlab.metrics.pose_spread`,

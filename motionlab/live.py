@@ -404,7 +404,8 @@ class SteeringPanel(AnyWidget):
     bones = traitlets.List().tag(sync=True)
     fps = traitlets.Float(20.0).tag(sync=True)
     running = traitlets.Bool(False).tag(sync=True)
-    keys = traitlets.List(traitlets.Unicode()).tag(sync=True)
+    held = traitlets.List(traitlets.Unicode()).tag(sync=True)      # intents held down in the browser
+    held_seq = traitlets.Int(0).tag(sync=True)                     # counts the browser's changes of them
     temperature = traitlets.Float(0.3).tag(sync=True)
     variant = traitlets.Unicode("dropout").tag(sync=True)
     variants = traitlets.List(traitlets.Unicode()).tag(sync=True)
@@ -424,10 +425,11 @@ class SteeringPanel(AnyWidget):
         self.character = LiveCharacter(self.models[first], fps, temperature, lock_feet, seed, weights=weights)
         self._guard = threading.Lock()
         self.loop = Loop(self._tick, self._deliver, fps, on_error=self._failed)
+        self.recent: collections.deque = collections.deque(maxlen=int(60 * self.character.fps))
         super().__init__(bones=_bones(), fps=self.character.fps, temperature=temperature, variant=first,
                          variants=list(self.models), lock_feet=lock_feet)
         self.observe(self._on_running, "running")
-        self.observe(self._on_keys, "keys")
+        self.observe(self._on_held, "held")
         self.observe(lambda change: self._locked(self.character.set_temperature, change["new"]), "temperature")
         self.observe(lambda change: self._locked(self.character.set_model, self.models[change["new"]]), "variant")
         self.observe(lambda change: setattr(self.character, "lock_feet", bool(change["new"])), "lock_feet")
@@ -440,15 +442,28 @@ class SteeringPanel(AnyWidget):
             function(*args)
 
     def intents(self) -> set:
-        return {k for k in self.keys if k in INTENTS}
+        return {k for k in self.held if k in INTENTS}
 
-    def _tick(self) -> Tick:
+    def _tick(self) -> tuple[Tick, int]:
         with self._guard:
-            return self.character.tick(self.intents())
+            seen, intents = self.held_seq, self.intents()  # the browser's changes this frame answers
+            tick = self.character.tick(intents)
+        self.recent.append((time.perf_counter(), tick, tuple(sorted(intents))))
+        return tick, seen
 
-    def _deliver(self, tick: Tick) -> None:
+    def steered(self) -> dict:
+        """The last minute the panel streamed: ``{"t": (frames,) s, "positions": (frames, 21, 3),
+        "intents": [...]}``, oldest first (what the student's keys made, to measure)."""
+        recent = list(self.recent)
+        if not recent:
+            raise ValueError("panel: nothing streamed yet (press start)")
+        return {"t": np.array([t for t, _, _ in recent]), "positions": np.stack([k.positions for _, k, _ in recent]),
+                "intents": [i for _, _, i in recent]}
+
+    def _deliver(self, ticked: tuple[Tick, int]) -> None:
+        tick, seen = ticked
         message = {"kind": "frame", "p": _rounded(tick.positions), "c": tick.contact.astype(int).tolist(),
-                   "u": np.round(tick.control, 3).tolist(), "n": tick.frame}
+                   "u": np.round(tick.control, 3).tolist(), "n": tick.frame, "k": seen}
         if tick.footprint is not None:
             message["fp"] = [round(v, 3) for v in tick.footprint]
         if tick.frame % 10 == 0:
@@ -469,7 +484,7 @@ class SteeringPanel(AnyWidget):
         else:
             self.loop.stop()
 
-    def _on_keys(self, change) -> None:
+    def _on_held(self, change) -> None:
         self.loop.changed()
 
     def _on_message(self, widget, content, buffers) -> None:
@@ -477,6 +492,7 @@ class SteeringPanel(AnyWidget):
         if kind == "reset":
             self._locked(self.character.reset)
             self.loop.reset_stats()
+            self.recent.clear()
             self.send({"kind": "reset"})
         elif kind == "detached":                        # the view is gone (cell re-run, tab closed)
             self.running = False
@@ -499,8 +515,10 @@ class SteeringPanel(AnyWidget):
     def _ipython_display_(self) -> None:
         from IPython.display import Markdown, display
         from . import viz
-        display(self._repr_mimebundle_(), raw=True)
-        run = self.recording()
+        run = self.recording()                             # first: the panel answers once it shows
+        bundle = self._repr_mimebundle_()                  # the widget (anywidget: data, metadata)
+        data, metadata = bundle if isinstance(bundle, tuple) else (bundle, {})
+        display(data, metadata=metadata, raw=True)
         fig = viz.plot_live_run(run, self.character.fps, title=f"MoGlow ({self.variant}), scripted: "
                                 + ", then ".join(_describe(h, s) for s, h in SCRIPT))
         display(Markdown("*Still picture: the same character steered by a script (what the panel above "

@@ -1,6 +1,7 @@
 // motionlab's live canvas (anywidget ES module; no build step, no network).
 // mode "live": the kernel sends one frame per tick ({kind: "frame", p: 63 numbers, c: contacts,
-//   fp: a new footprint [x, z], stats}); keys held down go back as the "keys" trait.
+//   fp: a new footprint [x, z], stats}); intents held down go back as the "held" trait
+//   (not "keys": ipywidgets uses that name for the list of synced traits).
 // mode "clip": the "clip" trait holds every frame once; the browser plays it in a loop.
 
 const FEET = [3, 4, 7, 8];   // left ankle, left toe, right ankle, right toe (motionlab.skeleton.FEET)
@@ -151,7 +152,15 @@ function render({ model, el: root }) {
   box.appendChild(bar);
   const pad = el("div"); pad.style.cssText = "display: grid; grid-template-columns: repeat(3, 52px); gap: 4px; user-select: none;";
   const held = new Set();
-  const send = () => { model.set("keys", [...held]); model.save_changes(); };
+  // what the browser received, for benchmarks/live.py --browser: arrival times of frames and
+  // the delay from each key change to the first frame generated after the kernel saw it
+  const record = { arrivals: [], latencies: [], pending: null, seq: 0 };
+  box.motionlab = record;
+  const send = () => {
+    record.seq += 1;
+    record.pending = { seq: record.seq, at: performance.now() };
+    model.set("held", [...held]); model.set("held_seq", record.seq); model.save_changes();
+  };
   PAD.forEach(([intent, label], k) => {
     const b = el("button", { type: "button", title: intent.replace("_", " ") }, label);
     b.style.cssText = "height: 30px;";
@@ -199,6 +208,14 @@ function render({ model, el: root }) {
 
   const onMessage = (msg) => {
     if (msg.kind === "frame") {
+      const now = performance.now();
+      record.arrivals.push(now);
+      if (record.arrivals.length > 20000) record.arrivals.splice(0, 10000);
+      if (record.pending && msg.k >= record.pending.seq) {
+        record.latencies.push(now - record.pending.at);
+        overlay.latency = now - record.pending.at;
+        record.pending = null;
+      }
       frame = msg.p;
       overlay.contacts = msg.c;
       state.path.push([msg.p[0], msg.p[2]]);
@@ -208,7 +225,7 @@ function render({ model, el: root }) {
         const s = msg.stats, f = (x, d = 1) => (x === null || x === undefined ? "-" : Number(x).toFixed(d));
         overlay.lines = [`${f(s.fps)} frames/s delivered · ${f(s["ms per frame"], 2)} ms per frame generated`,
                          `frame interval p50 ${f(s["interval p50 (ms)"], 0)} ms, p99 ${f(s["interval p99 (ms)"], 0)} ms · ` +
-                         `control to frame ${f(s["control to frame (ms)"], 0)} ms`];
+                         `key to frame ${f(overlay.latency, 0)} ms`];
       }
       if (!raf) raf = requestAnimationFrame(() => { raf = 0; paint(); });
     } else if (msg.kind === "reset") {

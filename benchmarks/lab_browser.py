@@ -1,0 +1,157 @@
+"""Drive JupyterLab in headless Chromium (selenium): what benchmarks/live.py --browser and
+tests/test_live_browser.py use to run the live panel as a student would.
+
+    with Lab({"live.ipynb": ["from motionlab import live", "panel = live.SteeringPanel()\\npanel"]}) as lab:
+        lab.run_cells(2)                     # Shift+Enter, as a student runs them
+        lab.driver.find_element(...)
+
+Needs Chromium and its driver (Debian: ``apt-get install chromium chromium-driver``) and
+selenium (``pip install selenium``); :func:`available` says whether they are there.
+"""
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def available() -> str | None:
+    """None when JupyterLab can be driven here, else why not."""
+    if shutil.which("chromium") is None and shutil.which("chromium-browser") is None:
+        return "Chromium is not installed (Debian: apt-get install chromium chromium-driver)"
+    if shutil.which("chromedriver") is None:
+        return "chromedriver is not installed (Debian: apt-get install chromium-driver)"
+    try:
+        import selenium  # noqa: F401
+    except ImportError:
+        return "selenium is not installed (pip install selenium)"
+    return None
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def notebook(cells: list[str]) -> dict:
+    return {"cells": [{"cell_type": "code", "execution_count": None, "id": f"c{k}", "metadata": {}, "outputs": [],
+                       "source": source} for k, source in enumerate(cells)],
+            "metadata": {"kernelspec": {"display_name": "Python 3 (ipykernel)", "language": "python",
+                                        "name": "python3"}},
+            "nbformat": 4, "nbformat_minor": 5}
+
+
+class Lab:
+    """A JupyterLab server on a free port with ``files`` (``{name: [cell sources]}``) in a
+    temporary folder, and a headless Chromium (``self.driver``) showing the first file."""
+
+    def __init__(self, files: dict, width: int = 1280, height: int = 1000, timeout_s: float = 90.0):
+        self.files, self.size, self.timeout = files, (width, height), timeout_s
+
+    def __enter__(self) -> "Lab":
+        try:
+            return self._start()
+        except BaseException:
+            self.__exit__(None, None, None)
+            raise
+
+    def _start(self) -> "Lab":
+        from selenium import webdriver
+        self.folder = tempfile.TemporaryDirectory()
+        for name, cells in self.files.items():
+            Path(self.folder.name, name).write_text(json.dumps(notebook(cells)), encoding="utf-8")
+        self.port, self.token = _free_port(), "motionlab"
+        env = {**os.environ, "PYTHONPATH": str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", "")}
+        self.log = open(Path(self.folder.name, "lab.log"), "w")
+        self.server = subprocess.Popen(
+            [sys.executable, "-m", "jupyter", "lab", "--no-browser", f"--port={self.port}", "--ip=127.0.0.1",
+             f"--IdentityProvider.token={self.token}", f"--ServerApp.root_dir={self.folder.name}",
+             "--ServerApp.disable_check_xsrf=True", "--LabApp.news_url=", "--LabApp.check_for_updates_class="
+             "jupyterlab.NeverCheckForUpdate", *(["--allow-root"] if os.geteuid() == 0 else [])], stdout=self.log, stderr=subprocess.STDOUT, env=env)
+        self._wait_for_server()
+        options = webdriver.ChromeOptions()
+        for flag in ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage",
+                     f"--window-size={self.size[0]},{self.size[1]}"):
+            options.add_argument(flag)
+        options.binary_location = shutil.which("chromium") or shutil.which("chromium-browser")
+        os.environ.setdefault("SE_AVOID_STATS", "true")            # selenium: no network calls
+        self.driver = webdriver.Chrome(options=options,
+                                       service=webdriver.ChromeService(executable_path=shutil.which("chromedriver")))
+        first = next(iter(self.files))
+        self.driver.get(f"http://127.0.0.1:{self.port}/lab/tree/{first}?token={self.token}")
+        self.wait_for(lambda d: d.find_elements("css selector", ".jp-Notebook .jp-Cell"), "the notebook to open")
+        self.wait_for(lambda d: "Idle" in d.find_element("css selector", "body").text, "the kernel to start")
+        return self
+
+    def _wait_for_server(self) -> None:
+        import urllib.request
+        deadline = time.time() + self.timeout
+        while time.time() < deadline:
+            try:
+                urllib.request.urlopen(f"http://127.0.0.1:{self.port}/api/status?token={self.token}", timeout=2)
+                return
+            except OSError:
+                time.sleep(0.5)
+        raise RuntimeError(f"JupyterLab did not start: see {self.log.name}")
+
+    def wait_for(self, condition, what: str, timeout_s: float | None = None):
+        from selenium.webdriver.support.ui import WebDriverWait
+        return WebDriverWait(self.driver, timeout_s or self.timeout).until(condition, f"waiting for {what}")
+
+    def run_cells(self, n: int) -> None:
+        """Run the first ``n`` cells with Shift+Enter, as a student would."""
+        from selenium.webdriver.common.action_chains import ActionChains
+        from selenium.webdriver.common.keys import Keys
+        cell = self.driver.find_elements("css selector", ".jp-Notebook .jp-Cell")[0]
+        cell.find_element("css selector", ".jp-InputArea-prompt").click()
+        for _ in range(n):
+            ActionChains(self.driver).key_down(Keys.SHIFT).send_keys(Keys.ENTER).key_up(Keys.SHIFT).perform()
+            time.sleep(0.3)
+
+    def run_cell(self, index: int) -> None:
+        """Select cell ``index`` (a click on its prompt) and run it with Shift+Enter."""
+        from selenium.webdriver.common.action_chains import ActionChains
+        from selenium.webdriver.common.keys import Keys
+        cell = self.driver.find_elements("css selector", ".jp-Notebook .jp-Cell")[index]
+        self.driver.execute_script("arguments[0].scrollIntoView({block: 'center'});", cell)
+        cell.find_element("css selector", ".jp-InputArea-prompt").click()
+        ActionChains(self.driver).key_down(Keys.SHIFT).send_keys(Keys.ENTER).key_up(Keys.SHIFT).perform()
+        time.sleep(0.3)
+
+    def wait_idle(self, timeout_s: float | None = None) -> None:
+        """Wait until no cell is running (no ``[*]`` prompt) and the kernel is idle."""
+        def idle(driver):
+            prompts = [p.text for p in driver.find_elements("css selector", ".jp-InputArea-prompt")]
+            return not any("*" in p for p in prompts) and "Idle" in driver.find_element("css selector", "body").text
+        self.wait_for(idle, "the cells to finish", timeout_s)
+
+    def outputs(self, index: int) -> str:
+        """The text of cell ``index``'s outputs."""
+        cells = self.driver.find_elements("css selector", ".jp-Notebook .jp-Cell")
+        return cells[index].find_element("css selector", ".jp-Cell-outputWrapper").text
+
+    def __exit__(self, *exc) -> None:
+        driver, server = getattr(self, "driver", None), getattr(self, "server", None)
+        try:
+            if driver is not None:
+                driver.quit()
+        finally:
+            if server is not None:
+                server.terminate()
+                try:
+                    server.wait(10)
+                except subprocess.TimeoutExpired:
+                    server.kill()
+            if getattr(self, "log", None) is not None:
+                self.log.close()
+            if getattr(self, "folder", None) is not None:
+                self.folder.cleanup()

@@ -1,0 +1,61 @@
+"""The live panel as a student uses it: JupyterLab in headless Chromium, driven by selenium.
+
+Runs where Chromium, its driver and selenium are installed (Debian: ``apt-get install
+chromium chromium-driver``; ``pip install selenium``), else skips. Checks behaviour, not
+speed (the speeds are printed by ``benchmarks/live.py --browser``): frames arrive, the
+keyboard steers (held forward, the body steps like the data at that speed; let go, it
+stops), another cell runs while it streams, and running the cell again leaves no thread.
+"""
+from __future__ import annotations
+
+import re
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+import lab_browser  # noqa: E402
+
+pytestmark = [pytest.mark.slow,
+              pytest.mark.skipif(lab_browser.available() is not None, reason=str(lab_browser.available()))]
+
+PANEL = "from motionlab import live\npanel = live.SteeringPanel()\npanel"
+OTHER = "total = sum(i * i for i in range(2 * 10**6))\nprint('another cell ran:', total > 0)"
+MEASURE = """from motionlab import claims, experiments
+print(claims.follows_keys(panel.steered(), experiments.preset_walks("walk", 4.0, 20.0, n=4), 20.0))"""
+THREADS = "import threading\nprint('live threads:', sum(t.name == 'motionlab-live' for t in threading.enumerate()))"
+RECORD = "return document.querySelector('.motionlab-live').motionlab.arrivals.length"
+
+
+def test_a_student_steers_the_character_in_jupyterlab():
+    from selenium.webdriver.common.action_chains import ActionChains
+    from selenium.webdriver.common.keys import Keys
+    with lab_browser.Lab({"live.ipynb": [PANEL, OTHER, MEASURE, THREADS]}) as lab:
+        lab.run_cells(1)
+        lab.wait_idle()
+        d = lab.driver
+        box = d.find_element("css selector", ".motionlab-live")
+        box.find_element("xpath", ".//button[contains(., 'start')]").click()
+        box.find_element("css selector", "canvas").click()
+        time.sleep(1.0)
+        ActionChains(d).key_down(Keys.ARROW_UP).perform()
+        time.sleep(2.5)
+        ActionChains(d).key_up(Keys.ARROW_UP).perform()
+        before = d.execute_script(RECORD)
+        lab.run_cell(1)                           # another cell, while the character streams
+        lab.wait_idle()
+        assert "another cell ran: True" in lab.outputs(1)
+        time.sleep(1.5)
+        assert d.execute_script(RECORD) > before + 20       # frames kept coming
+        lab.run_cell(2)                           # what the keys made
+        lab.wait_idle()
+        report = lab.outputs(2)
+        assert "held forward it walks, let go it stops: holds" in report, report
+        # the panel's cell run again: the old view goes, its loop stops; no thread is left
+        lab.run_cell(0)
+        lab.wait_idle()
+        lab.run_cell(3)
+        lab.wait_idle()
+        assert re.search(r"live threads: 0", lab.outputs(3)), lab.outputs(3)
