@@ -46,8 +46,17 @@ side-step, Shift to run, Space to stop) and its on-screen pad to these."""
 
 VARIANTS = {"dropout": "moglow", "no dropout": "moglow_no_dropout", "feet anchored": "moglow_foot_anchor"}
 """The shipped MoGlow models that stream (recurrent couplings; ``motionlab.pretrained``
-names). The Markov variants of notebook 06 generate with ``MoGlow.sample`` instead, whose
-conditioning window is rebuilt every frame; they are left out of the live panel."""
+names): notebook 06's panel. The Markov variants of notebook 06 generate with
+``MoGlow.sample`` instead, whose conditioning window is rebuilt every frame; they are left
+out of the live panel."""
+
+CONTROLLABLE = {"MoGlow": "moglow", "MoGlow, feet anchored": "moglow_foot_anchor", "LSTM-3LR": "lstm_control"}
+"""Notebook 08's panel: every shipped model that follows a control one frame at a time
+(``model.stream``). Habibie's VAE-LSTM also follows a control, but its convolutional
+control encoder and canvas decoder read a whole window at once, so it cannot stream."""
+
+PRIME_FRAMES = 10
+"""Frames a model without a fixed history (the LSTM) reads before it streams (0.5 s)."""
 
 
 @dataclass
@@ -110,6 +119,11 @@ class Tick:
     ms: float
 
 
+def _history(model) -> int:
+    """The frames ``model``'s stream starts from: MoGlow's ``τ``, else :data:`PRIME_FRAMES`."""
+    return int(getattr(model.config, "history", PRIME_FRAMES))
+
+
 def standing_start(history: int, fps: float) -> np.ndarray:
     """``history`` frames of a built-in body standing still, features ``(history, 66)`` in
     data units: where a live character starts."""
@@ -118,11 +132,13 @@ def standing_start(history: int, fps: float) -> np.ndarray:
 
 
 class LiveCharacter:
-    """A MoGlow character generated one frame at a time in the world.
+    """A character generated one frame at a time in the world by a model that streams.
 
     Args:
         model: a shipped or trained :class:`~motionlab.models.moglow.MoGlow` with recurrent
-            couplings and its ``normalizer`` (``pretrained.load`` sets it).
+            couplings, or a ``control="given"`` :class:`~motionlab.models.lstm.MotionLSTM`
+            (the LSTM-3LR), with its ``normalizer`` (``pretrained.load`` sets it): anything
+            with ``model.stream(history, temperature, generator, normalizer=, weights=)``.
         temperature: the prior's standard deviation (notebook 06 samples at 0.3).
         lock_feet: lock the feet with the causal :class:`~motionlab.contacts.FootLock`.
         seed: the noise's seed (a reset starts it again).
@@ -136,7 +152,7 @@ class LiveCharacter:
         self.temperature = checks.non_negative(temperature, "temperature", 10.0)
         self.lock_feet, self.seed, self.weights = bool(lock_feet), int(seed), weights
         self.model = self._checked(model)
-        tau = model.config.history
+        tau = _history(model)
         self.start = standing_start(tau, self.fps) if start is None else \
             checks.array(start, "start", (tau, N_POSE + 3))
         self.steering = Steering(self.fps)
@@ -145,15 +161,18 @@ class LiveCharacter:
     @staticmethod
     def _checked(model):
         if getattr(model, "normalizer", None) is None or not hasattr(model, "stream"):
-            raise ValueError("model: expected a MoGlow with its normalizer (motionlab.pretrained.load('moglow'))")
-        if not model.config.recurrent:
+            raise ValueError("model: expected a model that streams (MoGlow, the LSTM-3LR) with its normalizer "
+                             "(motionlab.pretrained.load('moglow'))")
+        if not getattr(model.config, "recurrent", True):
             raise ValueError("model: a live character needs recurrent (LSTM) couplings; a Markov MoGlow does not stream")
+        if getattr(model.config, "control", "given") != "given":
+            raise ValueError("model: the LSTM must be given the control (control='given') to be steered")
         return model
 
     def reset(self) -> None:
         """Back to the start: standing at the origin facing +z, fresh noise, no footprints."""
         self.generator = torch.Generator().manual_seed(self.seed)
-        self.history = collections.deque(self.start, maxlen=len(self.start))
+        self.history = collections.deque(self.start, maxlen=max(len(self.start), 4 * PRIME_FRAMES))
         self._new_stream()
         self.wobble = synthetic.StrideWobble(self.fps)
         self.steering.reset()
@@ -163,16 +182,18 @@ class LiveCharacter:
         self._toe_down = np.zeros(2, dtype=bool)
 
     def _new_stream(self) -> None:
-        history = torch.tensor(np.asarray(self.history), dtype=torch.float32)[None]
+        history = torch.tensor(np.asarray(self.history)[-_history(self.model):], dtype=torch.float32)[None]
         self.stream = self.model.stream(history, self.temperature, self.generator,
                                         normalizer=self.model.normalizer, weights=self.weights)
 
     def set_model(self, model) -> None:
-        """Switch models mid-walk: the new one continues from the last ``τ`` frames generated."""
-        if model.config.history != self.model.config.history:
-            raise ValueError(f"model: expected a history of {self.model.config.history} frames like the current "
-                             f"model's, got {model.config.history}")
-        self.model = self._checked(model)
+        """Switch models mid-walk: the new one continues from the last frames generated (its
+        history ``τ``, or :data:`PRIME_FRAMES`)."""
+        model = self._checked(model)
+        if _history(model) > self.history.maxlen:
+            raise ValueError(f"model: needs {_history(model)} frames of history, this character keeps "
+                             f"{self.history.maxlen}")
+        self.model = model
         self._new_stream()
 
     def set_temperature(self, temperature: float) -> None:
@@ -389,10 +410,13 @@ class ClipPlayer(AnyWidget):
 
 
 class SteeringPanel(AnyWidget):
-    """Steer a MoGlow character live (see the module text). In a notebook cell::
+    """Steer a character live (see the module text). In a notebook cell::
 
-        panel = SteeringPanel()          # loads the shipped MoGlow models
+        panel = SteeringPanel()          # loads the shipped MoGlow models (VARIANTS)
         panel                            # click the canvas, hold the arrows (or WASD)
+
+    ``models`` (``{label: model}``) or ``names`` (``{label: pretrained name}``, e.g.
+    :data:`CONTROLLABLE`) choose what the model menu offers; switching continues the walk.
 
     ``panel.loop`` is the :class:`Loop`, ``panel.character`` the :class:`LiveCharacter`;
     ``panel.close()`` (or running the cell again) stops the thread. Only one panel runs
@@ -413,10 +437,11 @@ class SteeringPanel(AnyWidget):
     error = traitlets.Unicode("").tag(sync=True)
 
     def __init__(self, models: dict | None = None, fps: float = 20.0, temperature: float = 0.3,
-                 lock_feet: bool = True, seed: int = 0, weights: torch.dtype = torch.float32):
+                 lock_feet: bool = True, seed: int = 0, weights: torch.dtype = torch.float32,
+                 names: dict | None = None):
         if models is None:
             from . import pretrained
-            models = {label: pretrained.load(name) for label, name in VARIANTS.items()
+            models = {label: pretrained.load(name) for label, name in (names or VARIANTS).items()
                       if name in pretrained.available()}
         if not models:
             raise ValueError("models: expected at least one MoGlow ({label: model})")

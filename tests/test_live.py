@@ -84,6 +84,25 @@ def test_held_forward_walks_and_letting_go_stops(moglow):
     assert not claims.follows_keys(relabelled, data, FPS)
     with pytest.raises(ValueError, match="intents"):
         claims.follows_keys({**run, "intents": run["intents"][:5]}, data, FPS)
+    # §5.3 felt at the keyboard: MoGlow trained without history dropout ignores the stick
+    if "moglow_no_dropout" in pretrained.available():
+        deaf = live.record(live.LiveCharacter(pretrained.load("moglow_no_dropout"), FPS),
+                           ((3.0, ("forward",)), (2.0, ())))
+        assert not claims.follows_keys(deaf, data, FPS)
+
+
+def test_the_lstm_baseline_streams_and_switches_mid_walk(moglow):
+    if "lstm_control" not in pretrained.available():
+        pytest.skip("the shipped LSTM-3LR is not in data/checkpoints")
+    lstm = pretrained.load("lstm_control")
+    character = live.LiveCharacter(moglow, FPS)
+    live.record(character, ((1.0, ("forward",)),))
+    character.set_model(lstm)                                        # continues from the frames so far
+    run = live.record(character, ((1.0, ("forward", "left")),))
+    assert np.isfinite(run["positions"]).all() and character.frame == 2 * FPS
+    assert np.linalg.norm(run["positions"][-1, 0, [0, 2]] - run["positions"][0, 0, [0, 2]]) > 0.5
+    with pytest.raises(ValueError, match="control='given'"):
+        live.LiveCharacter(pretrained.load("lstm_no_control"), FPS)
 
 
 def test_character_is_repeatable_and_resets(moglow):

@@ -89,3 +89,21 @@ def test_a_short_training_run_lowers_the_loss(control):
     history = training.train(model, prepared, training.TrainConfig(epochs=10, batch_size=8, lr=5e-3,
                                                                  progress=False))
     assert history.last("loss") < 0.7 * before
+
+
+def test_the_stream_is_sample_one_frame_at_a_time():
+    import numpy as np
+    torch.manual_seed(0)
+    model = MotionLSTM(LSTMConfig(hidden=16, layers=2, control="given")).eval()
+    prefix, control = torch.randn(2, 5, 66), torch.randn(2, 12, 3)
+    whole = model.sample(prefix, 12, torch.cat([prefix[..., 63:], control], dim=1)[:, :12])
+    stream = model.stream(prefix)
+    frames = torch.stack([stream.step(whole[:, t, 63:]) for t in range(5, 12)], dim=1)
+    assert torch.allclose(frames, whole[:, 5:], atol=1e-6)
+    norm = data.Normalizer(np.full(66, 0.5), np.full(66, 2.0))       # data units in and out
+    units = model.stream(norm.denormalize(prefix), normalizer=norm)
+    assert torch.allclose(units.step(norm.denormalize(whole[:, 5])[:, 63:]), norm.denormalize(whole[:, 5]), atol=1e-5)
+    with pytest.raises(ValueError, match="control: expected finite"):
+        stream.step(torch.full((2, 3), float("nan")))
+    with pytest.raises(ValueError, match="control='given'"):
+        MotionLSTM(LSTMConfig(hidden=16, layers=2, control="predicted")).stream(prefix)

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
+import numpy as np
 import torch
 import torch.nn.functional as F
 from torch import nn
@@ -199,6 +200,13 @@ class MotionLSTM(GenerativeModel, nn.Module):
                 out.append(current)
         return torch.cat(out, dim=1)
 
+    def stream(self, history: torch.Tensor, temperature: float = 1.0, generator: torch.Generator | None = None,
+               normalizer=None, weights: torch.dtype = torch.float32) -> "LSTMStream":
+        """An :class:`LSTMStream` that continues ``history`` one control frame at a time (the
+        same signature as ``MoGlow.stream``; the LSTM is deterministic, so ``temperature``,
+        ``generator`` and ``weights`` change nothing)."""
+        return LSTMStream(self, history, normalizer, temperature)
+
     def generate(self, control=None, *, frames=None, prefix=None, n=1, temperature=1.0, seed=0) -> Generated:
         """Continue ``prefix`` (required, ``k >= 1`` frames); see :mod:`motionlab.models.base`.
 
@@ -221,3 +229,46 @@ class MotionLSTM(GenerativeModel, nn.Module):
         device = next(self.parameters()).device
         motion = self.sample(prefix.to(device), k + frames, None if control is None else control.to(device))
         return self._result(motion[:, k:])
+
+
+class LSTMStream:
+    """LSTM-3LR in real time (a ``control="given"`` model): feed one control frame, get the
+    frame back, as :meth:`MotionLSTM.sample` makes it (frame ``t`` from frame ``t - 1`` and
+    control ``t``), carrying the LSTM's state between calls.
+
+    >>> stream = model.stream(history, normalizer=model.normalizer)   # (batch, k, 66) data units
+    >>> frame = stream.step(control)                                   # (batch, 3) -> (batch, 66)
+    """
+
+    def __init__(self, model: MotionLSTM, history, normalizer=None, temperature: float = 1.0):
+        if model.config.control != "given":
+            raise ValueError("model: only a control='given' LSTM follows a stream of controls")
+        self.model, self.temperature = model, float(temperature)
+        self.n_pose = model.config.n_pose
+        device = next(model.parameters()).device
+        self._mean, self._std = ((None, None) if normalizer is None else
+                                 (torch.as_tensor(np.asarray(normalizer.mean), dtype=torch.float32, device=device),
+                                  torch.as_tensor(np.asarray(normalizer.std), dtype=torch.float32, device=device)))
+        history = torch.as_tensor(history, dtype=torch.float32, device=device)
+        model._check(history, "history", model.config.n_features)
+        if self._mean is not None:
+            history = (history - self._mean) / self._std
+        with torch.no_grad(), eval_mode(model):
+            self.state = model(history[:, :-1], history[:, 1:, self.n_pose:])[1] if history.shape[1] > 1 else None
+        self.current = history[:, -1:]
+
+    def step(self, control) -> torch.Tensor:
+        """The next frame ``(batch, n_features)`` for this frame's ``control`` ``(batch, 3)``
+        (or ``(3,)``), in the data's units when the stream has a normaliser."""
+        control = torch.as_tensor(control, dtype=torch.float32, device=self.current.device)
+        control = control.expand(self.current.shape[0], -1) if control.ndim == 1 else control
+        if control.shape != (self.current.shape[0], self.model.config.n_control) or not torch.isfinite(control).all():
+            raise ValueError(f"control: expected finite ({self.current.shape[0]}, {self.model.config.n_control}), "
+                             f"got {tuple(control.shape)}")
+        if self._mean is not None:
+            control = (control - self._mean[self.n_pose:]) / self._std[self.n_pose:]
+        with torch.no_grad(), eval_mode(self.model):
+            pose, self.state = self.model(self.current, control[:, None], self.state)
+        self.current = torch.cat([pose, control[:, None]], dim=-1)
+        frame = self.current[:, 0]
+        return frame if self._mean is None else frame * self._std + self._mean
