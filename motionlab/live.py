@@ -142,13 +142,17 @@ class LiveCharacter:
         temperature: the prior's standard deviation (notebook 06 samples at 0.3).
         lock_feet: lock the feet with the causal :class:`~motionlab.contacts.FootLock`.
         seed: the noise's seed (a reset starts it again).
+        wobble: add the stride's sway to the control (:class:`~motionlab.synthetic.StrideWobble`);
+            the models were trained on controls that sway with every step and read their
+            step timing from it, so without it they take shorter steps and glide.
         start: the first ``τ`` frames, features in data units; default a body standing.
         weights: the stream's LSTM weights, ``torch.float32`` or ``torch.bfloat16``.
     """
 
     def __init__(self, model, fps: float = 20.0, temperature: float = 0.3, lock_feet: bool = True, seed: int = 0,
-                 start: np.ndarray | None = None, weights: torch.dtype = torch.float32):
+                 start: np.ndarray | None = None, weights: torch.dtype = torch.float32, wobble: bool = True):
         self.fps = checks.rate(fps, "fps")
+        self.sway = bool(wobble)
         self.temperature = checks.non_negative(temperature, "temperature", 10.0)
         self.lock_feet, self.seed, self.weights = bool(lock_feet), int(seed), weights
         self.model = self._checked(model)
@@ -203,7 +207,8 @@ class LiveCharacter:
     def tick(self, intents=()) -> Tick:
         """One frame for what is held down now (a set of :data:`INTENTS`)."""
         began = time.perf_counter()
-        control = self.wobble.step(self.steering.step(intents))
+        control = self.steering.step(intents)
+        control = self.wobble.step(control) if self.sway else control
         with torch.inference_mode():
             features = self.stream.step(torch.tensor(control, dtype=torch.float32)[None])[0].numpy().astype(float)
         if not np.isfinite(features).all():
@@ -534,7 +539,7 @@ class SteeringPanel(AnyWidget):
         (the panel's own character is left where it is)."""
         c = self.character
         fresh = LiveCharacter(c.model, c.fps, c.temperature, c.lock_feet, c.seed if seed is None else seed,
-                              start=c.start, weights=c.weights)
+                              start=c.start, weights=c.weights, wobble=c.sway)
         return record(fresh, script)
 
     def _ipython_display_(self) -> None:

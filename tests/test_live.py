@@ -84,6 +84,9 @@ def test_held_forward_walks_and_letting_go_stops(moglow):
     assert not claims.follows_keys(relabelled, data, FPS)
     with pytest.raises(ValueError, match="intents"):
         claims.follows_keys({**run, "intents": run["intents"][:5]}, data, FPS)
+    # without the stride's sway in the control the model takes short steps and glides
+    smooth = live.record(live.LiveCharacter(moglow, FPS, wobble=False), ((3.0, ("forward",)), (2.0, ())))
+    assert not claims.follows_keys(smooth, data, FPS)
     # §5.3 felt at the keyboard: MoGlow trained without history dropout ignores the stick
     if "moglow_no_dropout" in pretrained.available():
         deaf = live.record(live.LiveCharacter(pretrained.load("moglow_no_dropout"), FPS),
