@@ -1,4 +1,4 @@
-"""Drive JupyterLab in headless Chromium (selenium): what benchmarks/live.py --browser and
+"""Drive JupyterLab (or Notebook 7: ``app="notebook"``) in headless Chromium (selenium): what benchmarks/live.py --browser and
 tests/test_live_browser.py use to run the live panel as a student would.
 
     with Lab({"live.ipynb": ["from motionlab import live", "panel = live.SteeringPanel()\\npanel"]}) as lab:
@@ -36,6 +36,11 @@ def available() -> str | None:
     return None
 
 
+def _kernel_idle(driver) -> bool:
+    """The notebook toolbar's execution indicator says idle (JupyterLab and Notebook 7)."""
+    return bool(driver.find_elements("css selector", ".jp-Notebook-ExecutionIndicator[data-status='idle']"))
+
+
 def _free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
@@ -54,8 +59,11 @@ class Lab:
     """A JupyterLab server on a free port with ``files`` (``{name: [cell sources]}``) in a
     temporary folder, and a headless Chromium (``self.driver``) showing the first file."""
 
-    def __init__(self, files: dict, width: int = 1280, height: int = 1000, timeout_s: float = 90.0):
-        self.files, self.size, self.timeout = files, (width, height), timeout_s
+    def __init__(self, files: dict, width: int = 1280, height: int = 1000, timeout_s: float = 90.0,
+                 app: str = "lab"):
+        if app not in ("lab", "notebook"):
+            raise ValueError(f"app: expected 'lab' (JupyterLab) or 'notebook' (Notebook 7), got {app!r}")
+        self.files, self.size, self.timeout, self.app = files, (width, height), timeout_s, app
 
     def __enter__(self) -> "Lab":
         try:
@@ -73,7 +81,7 @@ class Lab:
         env = {**os.environ, "PYTHONPATH": str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", "")}
         self.log = open(Path(self.folder.name, "lab.log"), "w")
         self.server = subprocess.Popen(
-            [sys.executable, "-m", "jupyter", "lab", "--no-browser", f"--port={self.port}", "--ip=127.0.0.1",
+            [sys.executable, "-m", "jupyter", self.app, "--no-browser", f"--port={self.port}", "--ip=127.0.0.1",
              f"--IdentityProvider.token={self.token}", f"--ServerApp.root_dir={self.folder.name}",
              "--ServerApp.disable_check_xsrf=True", "--LabApp.news_url=", "--LabApp.check_for_updates_class="
              "jupyterlab.NeverCheckForUpdate", *(["--allow-root"] if os.geteuid() == 0 else [])], stdout=self.log, stderr=subprocess.STDOUT, env=env)
@@ -87,9 +95,10 @@ class Lab:
         self.driver = webdriver.Chrome(options=options,
                                        service=webdriver.ChromeService(executable_path=shutil.which("chromedriver")))
         first = next(iter(self.files))
-        self.driver.get(f"http://127.0.0.1:{self.port}/lab/tree/{first}?token={self.token}")
+        where = "lab/tree" if self.app == "lab" else "notebooks"
+        self.driver.get(f"http://127.0.0.1:{self.port}/{where}/{first}?token={self.token}")
         self.wait_for(lambda d: d.find_elements("css selector", ".jp-Notebook .jp-Cell"), "the notebook to open")
-        self.wait_for(lambda d: "Idle" in d.find_element("css selector", "body").text, "the kernel to start")
+        self.wait_for(_kernel_idle, "the kernel to start")
         return self
 
     def _wait_for_server(self) -> None:
@@ -131,7 +140,7 @@ class Lab:
         """Wait until no cell is running (no ``[*]`` prompt) and the kernel is idle."""
         def idle(driver):
             prompts = [p.text for p in driver.find_elements("css selector", ".jp-InputArea-prompt")]
-            return not any("*" in p for p in prompts) and "Idle" in driver.find_element("css selector", "body").text
+            return not any("*" in p for p in prompts) and _kernel_idle(driver)
         self.wait_for(idle, "the cells to finish", timeout_s)
 
     def outputs(self, index: int) -> str:

@@ -1,4 +1,5 @@
-"""The live panel as a student uses it: JupyterLab in headless Chromium, driven by selenium.
+"""The live panel as a student uses it: JupyterLab (and Notebook 7, where installed) in
+headless Chromium, driven by selenium.
 
 Runs where Chromium, its driver and selenium are installed (Debian: ``apt-get install
 chromium chromium-driver``; ``pip install selenium``), else skips. Checks behaviour, not
@@ -29,10 +30,17 @@ THREADS = "import threading\nprint('live threads:', sum(t.name == 'motionlab-liv
 RECORD = "return document.querySelector('.motionlab-live').motionlab.arrivals.length"
 
 
-def test_a_student_steers_the_character_in_jupyterlab():
+def notebook7() -> bool:
+    import importlib.util
+    return importlib.util.find_spec("notebook") is not None
+
+
+@pytest.mark.parametrize("app", ["lab", pytest.param("notebook", marks=pytest.mark.skipif(
+    not notebook7(), reason="Notebook 7 is not installed (pip install notebook)"))])
+def test_a_student_steers_the_character(app):
     from selenium.webdriver.common.action_chains import ActionChains
     from selenium.webdriver.common.keys import Keys
-    with lab_browser.Lab({"live.ipynb": [PANEL, OTHER, MEASURE, THREADS]}) as lab:
+    with lab_browser.Lab({"live.ipynb": [PANEL, OTHER, MEASURE, THREADS]}, app=app) as lab:
         lab.run_cells(1)
         lab.wait_idle()
         d = lab.driver
@@ -41,13 +49,13 @@ def test_a_student_steers_the_character_in_jupyterlab():
         box.find_element("css selector", "canvas").click()
         time.sleep(1.0)
         ActionChains(d).key_down(Keys.ARROW_UP).perform()
-        time.sleep(2.5)
+        time.sleep(3.0)
         ActionChains(d).key_up(Keys.ARROW_UP).perform()
         before = d.execute_script(RECORD)
         lab.run_cell(1)                           # another cell, while the character streams
         lab.wait_idle()
         assert "another cell ran: True" in lab.outputs(1)
-        time.sleep(1.5)
+        time.sleep(2.0)
         assert d.execute_script(RECORD) > before + 20       # frames kept coming
         lab.run_cell(2)                           # what the keys made
         lab.wait_idle()

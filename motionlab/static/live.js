@@ -110,7 +110,9 @@ function render({ model, el: root }) {
   const overlay = { lines: [], error: "" };
   let frame = null, raf = 0, alive = true;
   const listeners = [];
-  const listen = (node, type, fn) => { node.addEventListener(type, fn); listeners.push([node, type, fn]); };
+  const listen = (node, type, fn, capture = false) => {
+    node.addEventListener(type, fn, capture); listeners.push([node, type, fn, capture]);
+  };
 
   const paint = () => { draw(ctx, state, model.get("bones"), frame, overlay); };
 
@@ -164,13 +166,14 @@ function render({ model, el: root }) {
   PAD.forEach(([intent, label], k) => {
     const b = el("button", { type: "button", title: intent.replace("_", " ") }, label);
     b.style.cssText = "height: 30px;";
-    const down = (e) => { e.preventDefault(); held.add(intent); send(); box.focus(); };
+    const down = (e) => { e.preventDefault(); held.add(intent); send(); };
     const up = () => { if (held.delete(intent)) send(); };
     listen(b, "pointerdown", down); listen(b, "pointerup", up); listen(b, "pointerleave", up);
     pad.appendChild(b);
   });
-  const help = el("div", {}, "Click the picture, then hold the arrows or W A S D (turn with left / right), " +
-    "Q / E to side-step, Shift to run, Space to stop; or hold the pad's buttons.");
+  const help = el("div", {}, "Click the picture (a blue frame: the keys now steer), then hold the arrows or " +
+    "W A S D (turn with left / right), Q / E to side-step, Shift to run, Space to stop; Esc or a click " +
+    "elsewhere gives the keys back to the notebook. Or hold the pad's buttons.");
   help.style.cssText = "color: #555; margin-top: 4px;";
   box.append(pad, help);
 
@@ -184,27 +187,36 @@ function render({ model, el: root }) {
   };
   sync();
   for (const name of ["running", "temperature", "variant", "lock_feet", "error"]) model.on(`change:${name}`, sync);
-  listen(play, "click", () => { model.set("running", !model.get("running")); model.save_changes(); box.focus(); });
-  listen(reset, "click", () => { model.send({ kind: "reset" }); box.focus(); });
+  listen(play, "click", () => { model.set("running", !model.get("running")); model.save_changes(); });
+  listen(reset, "click", () => { model.send({ kind: "reset" }); });
   listen(temperature, "input", () => { model.set("temperature", Number(temperature.value)); model.save_changes(); });
-  listen(variant, "change", () => { model.set("variant", variant.value); model.save_changes(); box.focus(); });
-  listen(lock, "change", () => { model.set("lock_feet", lock.checked); model.save_changes(); box.focus(); });
+  listen(variant, "change", () => { model.set("variant", variant.value); model.save_changes(); });
+  listen(lock, "change", () => { model.set("lock_feet", lock.checked); model.save_changes(); });
 
-  // keys: handled here and stopped, so the notebook's own shortcuts (A, B, D D...) do not fire
-  listen(box, "keydown", (e) => {
+  // keys: a click on the picture arms the panel (a blue frame); until Esc or a click
+  // elsewhere, its keys are caught on the window before anything else sees them, so the
+  // notebook's own shortcuts (A, B, D D...) do not fire and no frontend's focus handling
+  // (JupyterLab, Notebook 7, VS Code, Colab) can take them away
+  let armed = false;
+  const arm = (on) => {
+    armed = on;
+    canvas.style.outline = on ? "2px solid #1f77b4" : "none";
+    if (!on && held.size) { held.clear(); send(); }
+  };
+  const key = (down) => (e) => {
+    if (!armed) return;
+    if (e.key === "Escape") { arm(false); return; }
     const intent = KEYS[e.key];
     if (!intent) return;
     e.preventDefault(); e.stopPropagation();
-    if (!held.has(intent)) { held.add(intent); send(); }
-  });
-  listen(box, "keyup", (e) => {
-    const intent = KEYS[e.key];
-    if (!intent) return;
-    e.preventDefault(); e.stopPropagation();
-    if (held.delete(intent)) send();
-  });
-  listen(box, "blur", () => { if (held.size) { held.clear(); send(); } });
-  listen(canvas, "click", () => box.focus());
+    if (down && !held.has(intent)) { held.add(intent); send(); }
+    if (!down && held.delete(intent)) send();
+  };
+  listen(window, "keydown", key(true), true);
+  listen(window, "keyup", key(false), true);
+  listen(window, "pointerdown", (e) => { if (armed && !box.contains(e.target)) arm(false); }, true);
+  listen(window, "blur", () => { if (held.size) { held.clear(); send(); } });   // keyups would be lost
+  listen(canvas, "pointerdown", () => arm(true));
 
   const onMessage = (msg) => {
     if (msg.kind === "frame") {
@@ -244,7 +256,7 @@ function render({ model, el: root }) {
     cancelAnimationFrame(raf);
     model.off("msg:custom", onMessage);
     for (const name of ["running", "temperature", "variant", "lock_feet", "error"]) model.off(`change:${name}`, sync);
-    for (const [node, type, fn] of listeners) node.removeEventListener(type, fn);
+    for (const [node, type, fn, capture] of listeners) node.removeEventListener(type, fn, capture);
     try { model.send({ kind: "detached" }); } catch (e) { /* the kernel is gone */ }
   };
 }
