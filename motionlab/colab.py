@@ -40,10 +40,14 @@ if "google.colab" in sys.modules:
     if not os.path.isdir(COURSE):
         subprocess.run(["git", "clone", "--quiet", "--depth", "1", "--branch", "{ref}",
                         "https://github.com/{repository}", COURSE], check=True)
-        # --no-deps: Colab already has torch (with CUDA), numpy, matplotlib, ipywidgets, tqdm
+        # --no-deps: Colab already has torch (with CUDA), numpy, matplotlib, ipywidgets, tqdm;
+        # anywidget (the live panels' canvas) is installed on its own
+        subprocess.run([sys.executable, "-m", "pip", "install", "--quiet", "anywidget"], check=True)
         subprocess.run([sys.executable, "-m", "pip", "install", "--quiet", "--no-deps", "-e", COURSE], check=True)
     sys.path.insert(0, COURSE)       # importable now, without restarting the runtime
-    os.chdir(os.path.join(COURSE, "notebooks"))'''
+    os.chdir(os.path.join(COURSE, "notebooks"))
+    from google.colab import output
+    output.enable_custom_widget_manager()      # Colab shows third-party widgets (anywidget) only then'''
 
 
 def setup_cell(repository: str = REPOSITORY, ref: str = REF) -> str:

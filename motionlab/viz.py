@@ -241,9 +241,9 @@ def animate(clips: np.ndarray | Sequence[np.ndarray], fps: float, titles: Sequen
     return anim
 
 
-STILL_PANEL_PX = 280
+STILL_PANEL_PX = 320
 """The height of one row of :func:`stills`, pixels: a body standing in a panel of
-:func:`animate` is then about 130 px tall, readable where no player runs."""
+:func:`animate` is then about 125 px tall, readable where no player runs."""
 
 
 def stills(anim: animation.FuncAnimation, n: int = 4, dpi: float | None = None) -> np.ndarray:

@@ -22,7 +22,11 @@ def run_setup_cell(monkeypatch, on_colab: bool, course_exists: bool = False):
     """Execute the setup cell; returns the commands it ran, the folder it moved to and sys.path."""
     commands, moved = [], []
     if on_colab:
-        monkeypatch.setitem(sys.modules, "google.colab", types.ModuleType("google.colab"))
+        google_colab, output = types.ModuleType("google.colab"), types.ModuleType("google.colab.output")
+        output.enable_custom_widget_manager = lambda: commands.append(["enable_custom_widget_manager"])
+        google_colab.output = output
+        monkeypatch.setitem(sys.modules, "google.colab", google_colab)
+        monkeypatch.setitem(sys.modules, "google.colab.output", output)
     else:
         monkeypatch.delitem(sys.modules, "google.colab", raising=False)
     monkeypatch.setattr(subprocess, "run", lambda args, check: commands.append(list(args)))
@@ -50,8 +54,9 @@ def test_the_readme_course_table_has_the_badges():
 
 def test_on_colab_the_cell_clones_the_badges_commit_installs_and_moves_into_the_notebooks(monkeypatch):
     commands, moved, path = run_setup_cell(monkeypatch, on_colab=True)
-    clone, install = commands
+    clone, widgets, install, manager = commands
     assert clone[:2] == ["git", "clone"] and clone[clone.index("--branch") + 1] == colab.REF
+    assert widgets[-1] == "anywidget" and manager == ["enable_custom_widget_manager"]   # the live panels show
     assert f"https://github.com/{colab.REPOSITORY}" in clone
     course = clone[-1]
     assert install[:4] == [sys.executable, "-m", "pip", "install"] and install[-2:] == ["-e", course]
@@ -62,7 +67,7 @@ def test_on_colab_the_cell_clones_the_badges_commit_installs_and_moves_into_the_
 
 def test_on_colab_a_second_run_does_not_clone_again(monkeypatch):
     commands, moved, _ = run_setup_cell(monkeypatch, on_colab=True, course_exists=True)
-    assert commands == [] and len(moved) == 1
+    assert commands == [["enable_custom_widget_manager"]] and len(moved) == 1
 
 
 def test_anywhere_else_the_cell_does_nothing(monkeypatch):

@@ -40,7 +40,8 @@ def is_player(output: dict) -> bool:
 
 
 def is_progress_bar(output: dict) -> bool:
-    return WIDGET in output.get("data", {}) and bool(re.search(r"\d+%\|", text_of(output)))
+    """A training loop's bar (``motionlab.progress``; tqdm's widget in older notebooks)."""
+    return bool(re.search(r"\d+%\|", text_of(output)))
 
 
 def is_panel(output: dict) -> bool:
@@ -70,8 +71,8 @@ def test_every_animation_and_panel_leaves_a_picture(path):
 
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: p.name[:2])
 def test_every_training_run_leaves_a_summary(path):
-    """A saved progress bar keeps its first state ("0/1200"); the cell must also keep the
-    loop's finished summary ("... 1200 steps in 20.5 s, final loss ...")."""
+    """Beside each saved progress bar, the loop's finished summary ("... 1200 steps in
+    20.5 s, final loss ..."): the figures a reader looks for, in plain text."""
     for index, cell in enumerate(cells(path)):
         outputs = cell.get("outputs", [])
         bars = [o for o in outputs if is_progress_bar(o)]
