@@ -338,23 +338,25 @@ def follows_speed(speeds, stepping, data_stepping, name: str = "model") -> Verdi
     return verdict
 
 
-FOLLOWS_KEYS = {"walk": 0.7, "settle (s)": 1.0, "stopped for (s)": 0.5}
+FOLLOWS_KEYS = {"walk": 0.7, "settle (s)": 1.0, "stopped for (s)": 0.5, "turn": 0.5, "turn lag (s)": 0.5}
 """Live steering (:mod:`motionlab.live`): held forward, after its first second the body
 steps at least 70 % as fast as the data walking at that speed (§5.3's measure); let go,
 from a second later it steps slower than ``FOLLOWS_CONTROL["stopped (m/s)"]`` for half a
-second."""
+second; where a turn was held, the body's heading turns the same way by at least half the
+angle the control asked for (measured until half a second after the key, the body's lag)."""
 
 
 def follows_keys(steered: dict, data: np.ndarray, fps: float, name: str = "live character") -> Verdict:
     """The keys steer the character (:data:`FOLLOWS_KEYS`), measured on the last stretch in
-    which ``"forward"`` was held.
+    which ``"forward"`` was held (and the last in which a turn was).
 
     A character that ignores the keys fails: it never walks, or it walks on after the key
     is let go; so does one whose steps fade while the key is held.
 
     Args:
-        steered: ``{"positions": (frames, 21, 3), "intents": [per frame: what was held]}``
-            (:meth:`motionlab.live.SteeringPanel.steered`, :func:`motionlab.live.record`).
+        steered: ``{"positions": (frames, 21, 3), "intents": [per frame: what was held],
+            "control": (frames, 3)}`` (the control is needed only where a turn was held;
+            :meth:`motionlab.live.SteeringPanel.steered`, :func:`motionlab.live.record`).
         data: features ``(n, frames, 66)`` of bodies walking the walk preset (the speed
             "forward" asks for), e.g. :func:`motionlab.experiments.preset_walks`.
         fps: frames per second.
@@ -391,6 +393,20 @@ def follows_keys(steered: dict, data: np.ndarray, fps: float, name: str = "live 
                                                    f"(need >= {100 * FOLLOWS_KEYS['walk']:.0f} %)")
     bound = FOLLOWS_CONTROL["stopped (m/s)"]
     verdict.require(still < bound, f"let go, still steps at up to {still:.2f} m/s a second later (need < {bound:g})")
+    turning = np.array([("left" in i) != ("right" in i) for i in intents])
+    if turning.any():
+        control = checks.array(steered.get("control"), "steered['control']", (len(positions), 3))
+        edges = np.flatnonzero(np.diff(np.concatenate([[0], turning.astype(int), [0]])))
+        begin, end = edges[-2], edges[-1]
+        asked = float(control[begin:end, 2].sum() / fps)
+        from .representation import facing_angles
+        heading = np.unwrap(facing_angles(positions, fps))
+        until = min(len(positions) - 1, end + int(round(FOLLOWS_KEYS["turn lag (s)"] * fps)))
+        share = float((heading[until] - heading[begin]) / asked) if abs(asked) > 1e-6 else 0.0
+        verdict.figures["turn held: heading turned / asked"] = share
+        verdict.require(share >= FOLLOWS_KEYS["turn"], f"a turn held for {(end - begin) / fps:.1f} s turned the body "
+                                                       f"{100 * share:.0f} % of the angle asked "
+                                                       f"(need >= {100 * FOLLOWS_KEYS['turn']:.0f} %, the same way)")
     return verdict
 
 

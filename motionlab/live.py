@@ -55,6 +55,14 @@ CONTROLLABLE = {"MoGlow": "moglow", "MoGlow, feet anchored": "moglow_foot_anchor
 (``model.stream``). Habibie's VAE-LSTM also follows a control, but its convolutional
 control encoder and canvas decoder read a whole window at once, so it cannot stream."""
 
+CONTROL_RANGE = np.array([[min(a[2][0] for a in synthetic.ACTIVITIES), max(a[2][1] for a in synthetic.ACTIVITIES)],
+                          [-max(a[3][1] for a in synthetic.ACTIVITIES), max(a[3][1] for a in synthetic.ACTIVITIES)],
+                          [-1.5, 1.5]])
+"""The built-in data's range of each control (forward m/s, sideways m/s, turning rad/s;
+:data:`motionlab.synthetic.ACTIVITIES`, turning clipped at 1.5 rad/s as
+:func:`~motionlab.synthetic.random_control` does). A control outside it is clamped to it
+(the models never saw more) and the frame says so."""
+
 PRIME_FRAMES = 10
 """Frames a model without a fixed history (the LSTM) reads before it streams (0.5 s)."""
 
@@ -109,7 +117,8 @@ class Tick:
     """One delivered frame: world ``positions`` ``(21, 3)`` (feet locked when the lock is
     on), the foot joints in ``contact`` ``(4,)`` (:data:`~motionlab.skeleton.FEET` order),
     the ``control`` fed (with the stride wobble), a ``footprint`` ``(x, z)`` where a toe
-    just landed (or None), the frame's index and the milliseconds generating it took."""
+    just landed (or None), the frame's index, the milliseconds generating it took, and
+    whether the control asked for was outside :data:`CONTROL_RANGE` and clamped."""
 
     positions: np.ndarray
     contact: np.ndarray
@@ -117,6 +126,7 @@ class Tick:
     footprint: tuple | None
     frame: int
     ms: float
+    clamped: bool = False
 
 
 def _history(model) -> int:
@@ -207,7 +217,9 @@ class LiveCharacter:
     def tick(self, intents=()) -> Tick:
         """One frame for what is held down now (a set of :data:`INTENTS`)."""
         began = time.perf_counter()
-        control = self.steering.step(intents)
+        asked = self.steering.step(intents)
+        control = np.clip(asked, CONTROL_RANGE[:, 0], CONTROL_RANGE[:, 1])
+        clamped = bool((control != asked).any())
         control = self.wobble.step(control) if self.sway else control
         with torch.inference_mode():
             features = self.stream.step(torch.tensor(control, dtype=torch.float32)[None])[0].numpy().astype(float)
@@ -232,7 +244,8 @@ class LiveCharacter:
             toe = positions[FEET[1 + 2 * int(landed[0])]]
             footprint = (float(toe[0]), float(toe[2]))
         self.frame += 1
-        return Tick(positions, contact, control, footprint, self.frame - 1, 1000 * (time.perf_counter() - began))
+        return Tick(positions, contact, control, footprint, self.frame - 1, 1000 * (time.perf_counter() - began),
+                    clamped)
 
 
 SCRIPT = ((2.5, ("forward",)), (2.0, ("forward", "left")), (1.5, ("forward",)), (2.0, ()))
@@ -254,6 +267,7 @@ def record(character: LiveCharacter, script=SCRIPT) -> dict:
         raise ValueError("script: no frames to record")
     return {"positions": np.stack([t.positions for t in ticks]), "contact": np.stack([t.contact for t in ticks]),
             "control": np.stack([t.control for t in ticks]), "intents": intents,
+            "clamped": np.array([t.clamped for t in ticks]),
             "footprints": [t.footprint for t in ticks if t.footprint is not None],
             "ms": np.array([t.ms for t in ticks])}
 
@@ -483,12 +497,13 @@ class SteeringPanel(AnyWidget):
 
     def steered(self) -> dict:
         """The last minute the panel streamed: ``{"t": (frames,) s, "positions": (frames, 21, 3),
-        "intents": [...]}``, oldest first (what the student's keys made, to measure)."""
+        "control": (frames, 3), "intents": [...]}``, oldest first (what the student's keys made,
+        to measure)."""
         recent = list(self.recent)
         if not recent:
             raise ValueError("panel: nothing streamed yet (press start)")
         return {"t": np.array([t for t, _, _ in recent]), "positions": np.stack([k.positions for _, k, _ in recent]),
-                "intents": [i for _, _, i in recent]}
+                "control": np.stack([k.control for _, k, _ in recent]), "intents": [i for _, _, i in recent]}
 
     def _deliver(self, ticked: tuple[Tick, int]) -> None:
         tick, seen = ticked
@@ -496,6 +511,8 @@ class SteeringPanel(AnyWidget):
                    "u": np.round(tick.control, 3).tolist(), "n": tick.frame, "k": seen}
         if tick.footprint is not None:
             message["fp"] = [round(v, 3) for v in tick.footprint]
+        if tick.clamped:
+            message["x"] = 1                               # the panel says the control was clamped
         if tick.frame % 10 == 0:
             message["stats"] = {k: (None if not np.isfinite(v) else round(float(v), 2))
                                 for k, v in self.loop.stats().items()}

@@ -84,6 +84,14 @@ def test_held_forward_walks_and_letting_go_stops(moglow):
     assert not claims.follows_keys(relabelled, data, FPS)
     with pytest.raises(ValueError, match="intents"):
         claims.follows_keys({**run, "intents": run["intents"][:5]}, data, FPS)
+    # a turn held turns the body; a straight walk labelled as that turn fails the check
+    turned = live.record(live.LiveCharacter(moglow, FPS), ((1.5, ("forward",)), (2.0, ("forward", "left")),
+                                                           (1.0, ("forward",)), (2.0, ())))
+    verdict = claims.follows_keys(turned, data, FPS)
+    assert verdict and verdict.figures["turn held: heading turned / asked"] > 0.8, verdict
+    straight = live.record(live.LiveCharacter(moglow, FPS), ((4.5, ("forward",)), (2.0, ())))
+    assert not claims.follows_keys({**straight, "intents": turned["intents"], "control": turned["control"]},
+                                   data, FPS)
     # without the stride's sway in the control the model takes short steps and glides
     smooth = live.record(live.LiveCharacter(moglow, FPS, wobble=False), ((3.0, ("forward",)), (2.0, ())))
     assert not claims.follows_keys(smooth, data, FPS)
@@ -123,6 +131,14 @@ def test_character_is_repeatable_and_resets(moglow):
     assert character.stream.temperature == 0.0
     with pytest.raises(ValueError, match="temperature"):
         character.set_temperature(float("nan"))
+
+
+def test_a_control_outside_the_data_is_clamped_and_said(moglow):
+    character = live.LiveCharacter(moglow, FPS, wobble=False)
+    character.steering = live.Steering(FPS, walk_ms=9.0, turn_rads=4.0, ease_s=0.0)
+    tick = character.tick({"forward", "left"})
+    assert tick.clamped and tick.control.tolist() == [live.CONTROL_RANGE[0, 1], 0.0, live.CONTROL_RANGE[2, 1]]
+    assert not live.LiveCharacter(moglow, FPS).tick({"forward", "run"}).clamped     # the keys' own speeds fit
 
 
 def test_character_rejects_what_cannot_stream(moglow):

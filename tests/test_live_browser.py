@@ -4,8 +4,9 @@ headless Chromium, driven by selenium.
 Runs where Chromium, its driver and selenium are installed (Debian: ``apt-get install
 chromium chromium-driver``; ``pip install selenium``), else skips. Checks behaviour, not
 speed (the speeds are printed by ``benchmarks/live.py --browser``): frames arrive, the
-keyboard steers (held forward, the body steps like the data at that speed; let go, it
-stops), another cell runs while it streams, and running the cell again leaves no thread.
+keyboard steers (held forward, the body steps like the data at that speed; a turn held
+turns it; let go, it stops: ``claims.follows_keys``), another cell runs while it streams,
+and running the cell again leaves no thread.
 """
 from __future__ import annotations
 
@@ -49,7 +50,11 @@ def test_a_student_steers_the_character(app):
         box.find_element("css selector", "canvas").click()
         time.sleep(1.0)
         ActionChains(d).key_down(Keys.ARROW_UP).perform()
-        time.sleep(3.0)
+        time.sleep(1.5)
+        ActionChains(d).key_down(Keys.ARROW_LEFT).perform()         # turning changes the heading
+        time.sleep(2.0)
+        ActionChains(d).key_up(Keys.ARROW_LEFT).perform()
+        time.sleep(1.5)
         ActionChains(d).key_up(Keys.ARROW_UP).perform()
         before = d.execute_script(RECORD)
         lab.run_cell(1)                           # another cell, while the character streams

@@ -94,6 +94,10 @@ function draw(ctx, state, bones, frame, overlay) {
   }
   ctx.fillStyle = "#222"; ctx.font = "13px sans-serif";
   (overlay.lines || []).forEach((text, k) => ctx.fillText(text, 10, 20 + 17 * k));
+  if (overlay.clamped) {
+    ctx.fillStyle = "#b35900";
+    ctx.fillText("control clamped to the range of the training data", 10, height - 30);
+  }
   if (overlay.error) { ctx.fillStyle = "#c00000"; ctx.fillText(overlay.error, 10, height - 12); }
 }
 
@@ -230,6 +234,7 @@ function render({ model, el: root }) {
       }
       frame = msg.p;
       overlay.contacts = msg.c;
+      overlay.clamped = Boolean(msg.x);
       state.path.push([msg.p[0], msg.p[2]]);
       if (state.path.length > 600) state.path.shift();
       if (msg.fp) { state.footprints.push(msg.fp); if (state.footprints.length > 40) state.footprints.shift(); }
