@@ -116,12 +116,26 @@ class Lab:
         from selenium.webdriver.support.ui import WebDriverWait
         return WebDriverWait(self.driver, timeout_s or self.timeout).until(condition, f"waiting for {what}")
 
+    def _click_prompt(self, index: int) -> None:
+        """Click cell ``index``'s prompt (selecting it); the page may still be re-drawing the
+        notebook, so a cell that went stale between finding and clicking is found again."""
+        from selenium.common.exceptions import StaleElementReferenceException
+
+        def click(driver):
+            try:
+                cell = driver.find_elements("css selector", ".jp-Notebook .jp-Cell")[index]
+                driver.execute_script("arguments[0].scrollIntoView({block: 'center'});", cell)
+                cell.find_element("css selector", ".jp-InputArea-prompt").click()
+                return True
+            except (StaleElementReferenceException, IndexError):
+                return False
+        self.wait_for(click, f"cell {index}'s prompt")
+
     def run_cells(self, n: int) -> None:
         """Run the first ``n`` cells with Shift+Enter, as a student would."""
         from selenium.webdriver.common.action_chains import ActionChains
         from selenium.webdriver.common.keys import Keys
-        cell = self.driver.find_elements("css selector", ".jp-Notebook .jp-Cell")[0]
-        cell.find_element("css selector", ".jp-InputArea-prompt").click()
+        self._click_prompt(0)
         for _ in range(n):
             ActionChains(self.driver).key_down(Keys.SHIFT).send_keys(Keys.ENTER).key_up(Keys.SHIFT).perform()
             time.sleep(0.3)
@@ -130,9 +144,7 @@ class Lab:
         """Select cell ``index`` (a click on its prompt) and run it with Shift+Enter."""
         from selenium.webdriver.common.action_chains import ActionChains
         from selenium.webdriver.common.keys import Keys
-        cell = self.driver.find_elements("css selector", ".jp-Notebook .jp-Cell")[index]
-        self.driver.execute_script("arguments[0].scrollIntoView({block: 'center'});", cell)
-        cell.find_element("css selector", ".jp-InputArea-prompt").click()
+        self._click_prompt(index)
         ActionChains(self.driver).key_down(Keys.SHIFT).send_keys(Keys.ENTER).key_up(Keys.SHIFT).perform()
         time.sleep(0.3)
 
@@ -142,6 +154,25 @@ class Lab:
             prompts = [p.text for p in driver.find_elements("css selector", ".jp-InputArea-prompt")]
             return not any("*" in p for p in prompts) and _kernel_idle(driver)
         self.wait_for(idle, "the cells to finish", timeout_s)
+
+    def start_panel(self):
+        """Press the live panel's start button and click its picture (which arms its keys), as
+        a student would; returns the panel's element once its first frames have come."""
+        box = self.driver.find_element("css selector", ".motionlab-live")
+        box.find_element("xpath", ".//button[contains(., 'start')]").click()
+        box.find_element("css selector", "canvas").click()
+        time.sleep(1.0)
+        return box
+
+    def keys(self, down=(), up=()) -> None:
+        """Release the keys ``up`` and press the keys ``down`` (selenium ``Keys`` names, e.g.
+        ``"ARROW_UP"``), each as its own key event, as a held key reaches the page."""
+        from selenium.webdriver.common.action_chains import ActionChains
+        from selenium.webdriver.common.keys import Keys
+        for name in up:
+            ActionChains(self.driver).key_up(getattr(Keys, name)).perform()
+        for name in down:
+            ActionChains(self.driver).key_down(getattr(Keys, name)).perform()
 
     def outputs(self, index: int) -> str:
         """The text of cell ``index``'s outputs."""

@@ -86,8 +86,6 @@ KEY = {"forward": "ARROW_UP", "left": "ARROW_LEFT", "right": "ARROW_RIGHT", "bac
 def browser(seconds: float) -> None:
     """The panel in JupyterLab in headless Chromium, steered by :data:`live.SCRIPT`'s keys."""
     import lab_browser
-    from selenium.webdriver.common.action_chains import ActionChains
-    from selenium.webdriver.common.keys import Keys
     why = lab_browser.available()
     if why:
         raise SystemExit(f"--browser: {why}")
@@ -97,23 +95,16 @@ def browser(seconds: float) -> None:
         lab.run_cells(1)
         lab.wait_idle()
         d = lab.driver
-        box = d.find_element("css selector", ".motionlab-live")
-        box.find_element("xpath", ".//button[contains(., 'start')]").click()
-        box.find_element("css selector", "canvas").click()
-        time.sleep(1.0)
+        lab.start_panel()
         d.execute_script("const r = document.querySelector('.motionlab-live').motionlab; "
                          "r.arrivals.length = 0; r.latencies.length = 0;")
         began, held = time.perf_counter(), set()
         plan = scripted(seconds, 20.0)
         for k, intents in enumerate(plan):
             time.sleep(max(0.0, began + k / 20.0 - time.perf_counter()))
-            for name in held - intents:
-                ActionChains(d).key_up(getattr(Keys, KEY[name])).perform()
-            for name in intents - held:
-                ActionChains(d).key_down(getattr(Keys, KEY[name])).perform()
+            lab.keys(down=[KEY[n] for n in intents - held], up=[KEY[n] for n in held - intents])
             held = set(intents)
-        for name in held:
-            ActionChains(d).key_up(getattr(Keys, KEY[name])).perform()
+        lab.keys(up=[KEY[n] for n in held])
         arrivals, latencies = d.execute_script("const r = document.querySelector('.motionlab-live').motionlab; "
                                                "return [r.arrivals, r.latencies];")
         lab.run_cell(1)

@@ -64,12 +64,12 @@ ENTRIES = (Entry("vae", "VAE", "Motegi 2018", control=False, prefix=False, tempe
            Entry("vae_lstm", "VAE-LSTM", "Habibie 2017", control=True, prefix=False, temperature=1.0),
            Entry("glow", "Glow", "Henter 2020 §3", control=True, prefix=False, temperature=0.5, window=80),
            Entry("moglow", "MoGlow", "Henter 2020 §4", control=True, prefix=True, temperature=0.3),
-           Entry("moglow_foot_anchor", "MoGlow, anchored", "Henter 2020 §4, feet anchored", control=True, prefix=True,
+           Entry("moglow_foot_anchor", "MoGlow (anchored)", "Henter 2020 §4, feet anchored", control=True, prefix=True,
                  temperature=0.3),
            Entry("dfn", "DFN", "Chen 2020", control=False, prefix=True, temperature=1.0))
 """The models compared, in the course's order. Temperatures are the notebooks': MoGlow 0.3
 (notebook 06), Glow 0.5 (notebook 05), the others their model's own (1; the LSTM is
-deterministic). "MoGlow, anchored" is MoGlow trained with its feet modelled relative to
+deterministic). "MoGlow (anchored)" is MoGlow trained with its feet modelled relative to
 where they would be had they stayed planted (``MoGlowConfig.foot_anchor``: an exact
 likelihood still), the shipped recipe otherwise."""
 

@@ -50,7 +50,7 @@ names): notebook 06's panel. The Markov variants of notebook 06 generate with
 ``MoGlow.sample`` instead, whose conditioning window is rebuilt every frame; they are left
 out of the live panel."""
 
-CONTROLLABLE = {"MoGlow": "moglow", "MoGlow, feet anchored": "moglow_foot_anchor", "LSTM-3LR": "lstm_control"}
+CONTROLLABLE = {"MoGlow": "moglow", "MoGlow (anchored)": "moglow_foot_anchor", "LSTM-3LR": "lstm_control"}
 """Notebook 08's panel: every shipped model that follows a control one frame at a time
 (``model.stream``). Habibie's VAE-LSTM also follows a control, but its convolutional
 control encoder and canvas decoder read a whole window at once, so it cannot stream."""
@@ -551,28 +551,42 @@ class SteeringPanel(AnyWidget):
         super().close()
 
     # static view --------------------------------------------------------------------------
-    def recording(self, script=SCRIPT, seed: int | None = None) -> dict:
-        """:func:`record` ``script`` with a fresh character of the current model and settings
-        (the panel's own character is left where it is)."""
+    def recording(self, script=SCRIPT, seed: int | None = None, label: str | None = None) -> dict:
+        """:func:`record` ``script`` with a fresh character of the current model (or of the
+        model ``label``) and settings (the panel's own character is left where it is)."""
         c = self.character
-        fresh = LiveCharacter(c.model, c.fps, c.temperature, c.lock_feet, c.seed if seed is None else seed,
+        if label is not None and label not in self.models:
+            raise ValueError(f"label: expected one of {sorted(self.models)}, got {label!r}")
+        model = c.model if label is None else self.models[label]
+        fresh = LiveCharacter(model, c.fps, c.temperature, c.lock_feet, c.seed if seed is None else seed,
                               start=c.start, weights=c.weights, wobble=c.sway)
         return record(fresh, script)
+
+    def __repr__(self) -> str:
+        # what a text-only view of the notebook shows in place of the canvas
+        return (f"SteeringPanel({', '.join(self.models)}; live, needs a running kernel; "
+                f"{'running' if self.running else 'stopped'})")
+
+    def title(self, label: str) -> str:
+        """How the stills name the model ``label``: notebook 06's variant names read
+        "MoGlow (no dropout)", notebook 08's labels are model names already."""
+        return f"MoGlow ({label})" if label in VARIANTS else label
 
     def _ipython_display_(self) -> None:
         from IPython.display import Markdown, display
         from . import viz
-        run = self.recording()                             # first: the panel answers once it shows
+        import matplotlib.pyplot as plt
+        runs = {label: self.recording(label=label) for label in self.models}   # first: the panel answers once it shows
         bundle = self._repr_mimebundle_()                  # the widget (anywidget: data, metadata)
         data, metadata = bundle if isinstance(bundle, tuple) else (bundle, {})
         display(data, metadata=metadata, raw=True)
-        fig = viz.plot_live_run(run, self.character.fps, title=f"MoGlow ({self.variant}), scripted: "
-                                + ", then ".join(_describe(h, s) for s, h in SCRIPT))
-        display(Markdown("*Still picture: the same character steered by a script (what the panel above "
-                         "does when you hold the keys), drawn where no kernel runs.*"))
-        display(fig)
-        import matplotlib.pyplot as plt
-        plt.close(fig)
+        display(Markdown("*Still pictures: each model the panel offers, steered by the same script ("
+                         + ", then ".join(_describe(h, s) for s, h in SCRIPT)
+                         + "), as the panel above moves when you hold the keys; drawn where no kernel runs.*"))
+        for label, run in runs.items():
+            fig = viz.plot_live_run(run, self.character.fps, title=self.title(label))
+            display(fig)
+            plt.close(fig)
 
 
 def _describe(held, seconds) -> str:

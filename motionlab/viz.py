@@ -550,20 +550,22 @@ def plot_footprints(motions: dict, contacts: dict | None = None, ax=None, every:
     """Seen from above (world ``z`` right, ``x`` up, as :func:`plot_trajectory`), the path
     of each toe of every motion in ``motions`` ``{label: (frames, 21, 3)}``, with a dot at
     each frame where ``contacts[label]`` ``(frames, 4)`` says the toe is down: a planted
-    foot leaves one tight cluster of dots, a sliding one a smear. Returns the axes."""
+    foot leaves one tight cluster of dots, a sliding one a smear. The sides differ by line
+    and marker (left: solid line, dots; right: dashed line, triangles); one motion alone is
+    also coloured by side as the skeletons are (blue left, red right). Returns the axes."""
     from .skeleton import FEET
     if ax is None:
         ax = plt.figure(figsize=(10, 3.5)).add_subplot()
     for k, (label, positions) in enumerate(motions.items()):
         positions = checks.array(positions, f"motions[{label!r}]", ("frames", LOCOMOTION.n_joints, 3))
-        color = f"C{k}"
         for side, joint in ((0, 1), (1, 3)):
+            color = (LEFT_COLOR, RIGHT_COLOR)[side] if len(motions) == 1 else f"C{k}"
             toe = positions[::every, FEET[joint]]
             ax.plot(toe[:, 2], toe[:, 0], color=color, lw=0.8, alpha=0.6, ls="-" if side == 0 else "--",
                     label=f"{label}: {'left' if side == 0 else 'right'} toe")
             if contacts is not None and label in contacts:
                 down = np.asarray(contacts[label])[::every, joint]
-                ax.plot(toe[down, 2], toe[down, 0], "o", ms=3, color=color, alpha=0.8)
+                ax.plot(toe[down, 2], toe[down, 0], "o" if side == 0 else "^", ms=3, color=color, alpha=0.8)
     ax.set_xlabel("z (m)")
     ax.set_ylabel("x (m)")
     ax.set_aspect("equal", adjustable="datalim")
@@ -597,22 +599,23 @@ def plot_live_run(run: dict, fps: float, n: int = 4, title: str | None = None):
     """The still of a steered live run (:func:`motionlab.live.record`): ``n`` poses in the
     panel's three-quarter view, evenly spaced in time and each labelled with its time and
     what was held down, and the path seen from above with the footprints the toes left and
-    where each pose stood. Returns the figure (about 1300×330 px at 100 dpi)."""
+    where each pose stood. Returns the figure (about 1600×400 px at 100 dpi)."""
     positions = checks.array(run.get("positions"), "run['positions']", ("frames", LOCOMOTION.n_joints, 3))
     fps = checks.rate(fps, "fps")
     n = checks.whole(n, "n")
     picks = np.linspace(0, len(positions) - 1, n).round().astype(int)
-    fig = plt.figure(figsize=(3.0 * n + 4.0, 3.6))
+    fig = plt.figure(figsize=(3.0 * n + 4.0, 4.0))
     for k, frame in enumerate(picks):
         ax = fig.add_subplot(1, n + 1, k + 1, projection="3d")
         held = run.get("intents", [()] * len(positions))[frame]
         plot_skeleton(positions[frame], ax=ax, title=f"t = {frame / fps:.1f} s\n{' + '.join(held) or 'let go'}")
         ax.view_init(elev=20, azim=-60)
+        ax.set_axis_off()          # the floor grid (0.5 m squares) gives the scale; ticks only crowd it
     ax = fig.add_subplot(1, n + 1, n + 1)
     hips = positions[:, 0]
     ax.plot(hips[:, 2], hips[:, 0], color="tab:green", lw=1.5, label="path")
     prints = np.array(run.get("footprints") or np.zeros((0, 2)), dtype=float).reshape(-1, 2)
-    ax.plot(prints[:, 1], prints[:, 0], "s", ms=4, color="0.35", label="footprints")
+    ax.plot(prints[:, 1], prints[:, 0], "s", ms=4, color="0.35", label=f"footprints ({len(prints)})")
     ax.plot(hips[picks, 2], hips[picks, 0], "o", color="k", ms=5, label="poses shown")
     ax.set_xlabel("z (m)")
     ax.set_ylabel("x (m)")

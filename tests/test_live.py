@@ -253,6 +253,23 @@ def test_one_panel_runs_at_a_time(moglow):
     assert not live_threads()
 
 
+def test_steering_panel_text_view_and_stills_name_each_model(moglow, monkeypatch):
+    panel = live.SteeringPanel({"dropout": moglow, "MoGlow (anchored)": moglow})
+    text = repr(panel)
+    assert text == "SteeringPanel(dropout, MoGlow (anchored); live, needs a running kernel; stopped)"
+    assert "0x" not in text                                          # no memory address in a saved notebook
+    assert panel.title("dropout") == "MoGlow (dropout)" and panel.title("LSTM-3LR") == "LSTM-3LR"
+    assert panel.recording(label="MoGlow (anchored)")["positions"].shape[1:] == (21, 3)
+    with pytest.raises(ValueError, match="label"):
+        panel.recording(label="Glow")
+    shown = []
+    monkeypatch.setattr("IPython.display.display", lambda *args, **kwargs: shown.append(args[0]))
+    panel._ipython_display_()
+    figures = [item for item in shown if hasattr(item, "savefig")]
+    assert [f._suptitle.get_text() for f in figures] == ["MoGlow (dropout)", "MoGlow (anchored)"]
+    panel.close()
+
+
 def test_clip_player_takes_a_clip_and_checks_it(walk):
     player = live.ClipPlayer(walk, fps=FPS, title="a walk")
     assert player.mode == "clip" and len(player.clip) == len(walk) and len(player.clip[0]) == 63

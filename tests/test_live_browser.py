@@ -39,23 +39,18 @@ def notebook7() -> bool:
 @pytest.mark.parametrize("app", ["lab", pytest.param("notebook", marks=pytest.mark.skipif(
     not notebook7(), reason="Notebook 7 is not installed (pip install notebook)"))])
 def test_a_student_steers_the_character(app):
-    from selenium.webdriver.common.action_chains import ActionChains
-    from selenium.webdriver.common.keys import Keys
     with lab_browser.Lab({"live.ipynb": [PANEL, OTHER, MEASURE, THREADS]}, app=app) as lab:
         lab.run_cells(1)
         lab.wait_idle()
         d = lab.driver
-        box = d.find_element("css selector", ".motionlab-live")
-        box.find_element("xpath", ".//button[contains(., 'start')]").click()
-        box.find_element("css selector", "canvas").click()
-        time.sleep(1.0)
-        ActionChains(d).key_down(Keys.ARROW_UP).perform()
+        lab.start_panel()
+        lab.keys(down=["ARROW_UP"])
         time.sleep(1.5)
-        ActionChains(d).key_down(Keys.ARROW_LEFT).perform()         # turning changes the heading
+        lab.keys(down=["ARROW_LEFT"])                          # turning changes the heading
         time.sleep(2.0)
-        ActionChains(d).key_up(Keys.ARROW_LEFT).perform()
+        lab.keys(up=["ARROW_LEFT"])
         time.sleep(1.5)
-        ActionChains(d).key_up(Keys.ARROW_UP).perform()
+        lab.keys(up=["ARROW_UP"])
         before = d.execute_script(RECORD)
         lab.run_cell(1)                           # another cell, while the character streams
         lab.wait_idle()
