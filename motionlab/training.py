@@ -660,11 +660,8 @@ def register_model(model_class: type, config_class: type) -> None:
 
 def registered_models() -> dict[str, tuple[type, type]]:
     """``{"module.ModelClass": (model class, config class)}`` of every model a checkpoint may hold."""
-    from .models import conv_ae, dfn, glow, lstm, moglow, vae, vae_lstm
-    built_in = [(conv_ae.ConvAutoencoder, conv_ae.ConvAEConfig), (vae.FeatureVAE, vae.VAEConfig),
-                (vae_lstm.VAELSTM, vae_lstm.VAELSTMConfig), (lstm.MotionLSTM, lstm.LSTMConfig),
-                (glow.Glow, glow.GlowConfig), (moglow.MoGlow, moglow.MoGlowConfig), (dfn.DFN, dfn.DFNConfig)]
-    known = {_class_path(model_class): (model_class, config_class) for model_class, config_class in built_in}
+    from . import models                       # the model cards (motionlab.models.FILES)
+    known = {_class_path(card.model): (card.model, card.config) for card in models.cards().values()}
     known.update(_REGISTERED)
     return known
 

@@ -145,7 +145,7 @@ def test_non_finite_weights_are_refused(tmp_path, prepared, value):
         training.load_checkpoint(write(tmp_path, state))
 
 
-def test_a_normaliser_that_does_not_fit_the_model_is_refused(tmp_path, prepared):
+def test_a_normalizer_that_does_not_fit_the_model_is_refused(tmp_path, prepared):
     state = saved_state(prepared)
     state["normalizer"] = {"mean": [0.0] * 65, "std": [1.0] * 65}
     with pytest.raises(ValueError, match="crafted.pt: normaliser has 65 features, the model reads 66"):

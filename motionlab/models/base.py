@@ -110,7 +110,7 @@ class GenerativeModel:
     follows_control = False
     continues_motion = False
 
-    def _normaliser(self):
+    def _normalizer(self):
         if self.normalizer is None:
             raise ValueError(f"{type(self).__name__}: no normaliser, so generate() cannot work in the data's units; "
                              "train it with training.train, load it with training.load_checkpoint or "
@@ -151,16 +151,16 @@ class GenerativeModel:
                              f"got {prefix.shape}")
         return prefix
 
-    def _normalised_control(self, control, n: int, frames: int | None = None) -> torch.Tensor:
+    def _normalized_control(self, control, n: int, frames: int | None = None) -> torch.Tensor:
         """:meth:`_control_array`, normalised: a float32 tensor ``(n, frames, 3)``."""
         control = self._control_array(control, n, frames)
-        norm = self._normaliser()
+        norm = self._normalizer()
         return torch.tensor((control - norm.mean[CONTROL]) / norm.std[CONTROL], dtype=torch.float32)
 
-    def _normalised_prefix(self, prefix, n: int, min_frames: int = 1) -> torch.Tensor:
+    def _normalized_prefix(self, prefix, n: int, min_frames: int = 1) -> torch.Tensor:
         """:meth:`_prefix_array`, normalised: a float32 tensor ``(n, k, 66)``."""
         prefix = self._prefix_array(prefix, n, min_frames)
-        return torch.tensor(self._normaliser().normalize(prefix), dtype=torch.float32)
+        return torch.tensor(self._normalizer().normalize(prefix), dtype=torch.float32)
 
     def _refuse_prefix(self, prefix) -> None:
         if prefix is not None:
@@ -172,7 +172,7 @@ class GenerativeModel:
 
     def _result(self, normalised: torch.Tensor) -> Generated:
         """Normalised features ``(n, frames, 66)`` -> :class:`Generated` in the data's units."""
-        return self._result_in_data_units(self._normaliser().denormalize(normalised.detach().cpu().double().numpy()))
+        return self._result_in_data_units(self._normalizer().denormalize(normalised.detach().cpu().double().numpy()))
 
     def _result_in_data_units(self, features) -> Generated:
         features = np.asarray(features, dtype=np.float64)

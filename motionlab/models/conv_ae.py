@@ -26,6 +26,7 @@ from torch import nn
 from .. import checks
 from ..representation import N_POSE
 from .base import contact_term, eval_mode
+from .modelcard import NO_CLIP, ModelCard, choice, paper
 
 
 @dataclass(frozen=True)
@@ -216,3 +217,20 @@ class ConvAutoencoder(nn.Module):
                 ("depool: twice the frames again", tuple(up.shape)),
                 (f"conv back to {self.config.n_features} features", tuple(out.shape)),
                 ("transposed back (batch, frames, features)", tuple(out.transpose(1, 2).shape))]
+
+
+# ------------------------------------------------------------------------ training, as the paper says
+
+def motegi_schedule(section: str) -> dict:
+    """Motegi et al. 2018 trains the conv AE (§III-B) and the VAE (§IV-B) alike."""
+    return {
+        "optimizer": paper("Adam", f"Motegi 2018 §{section}: 'Adam optimization algorithm'"),
+        "batch_size": paper(100, f"§{section}: 'the batch size is 100'"),
+        "epochs": paper(200, f"§{section}: 'performed for 200 epochs'"),
+        "lr": choice(1e-3, "Motegi gives no learning rate: Adam's default (Kingma & Ba 2015)"),
+        "schedule": choice("constant", "no decay is mentioned"),
+        "grad_clip": choice(1.0, NO_CLIP),
+    }
+
+
+CARD = ModelCard("conv_ae", ConvAutoencoder, ConvAEConfig, schedule=motegi_schedule("III-B"))

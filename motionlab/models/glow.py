@@ -35,11 +35,11 @@ from functools import partial
 
 import numpy as np
 import torch
-from torch import nn
 
 from .. import checks
-from .base import Generated, GenerativeModel, generator_for
-from .flows import ConvCouplingNet, GaussianPrior, MultiScaleFlow
+from .base import Generated, generator_for
+from .flows import ConvCouplingNet, GaussianPrior, MotionFlow, MultiScaleFlow, henter_schedule
+from .modelcard import ModelCard
 
 
 @dataclass(frozen=True)
@@ -97,34 +97,6 @@ class GlowConfig:
         """§5.2: ``L = 4`` levels of ``K = 32`` steps, coupling networks with two hidden
         layers of 512 channels, conditioned on the control; 4-s windows at 20 fps (§5.1)."""
         return replace(cls(levels=4, steps=32, hidden=512, window=80, fps=20.0, conditional=True), **changes)
-
-
-class MotionFlow(GenerativeModel, nn.Module):
-    """What Glow and MoGlow share: the layout of a frame's features inside the flow.
-
-    The flow models the pose (the whole frame for an unconditional model) less the
-    ``constant_features`` (the hips' root-local ``x`` and ``z``, always 0): ``n_modelled``
-    values per frame, at the feature indices ``modelled``; the control columns are
-    ``control``.
-    """
-
-    def _set_layout(self, config, described: int) -> None:
-        modelled = [i for i in range(described) if i not in config.constant_features]
-        self.register_buffer("modelled", torch.tensor(modelled), persistent=False)
-        self.register_buffer("constant", torch.tensor(sorted(set(config.constant_features)), dtype=torch.long),
-                             persistent=False)
-        self.control = slice(config.n_features - config.n_control, config.n_features)
-        self.n_modelled = len(modelled)
-
-    def join_features(self, x: torch.Tensor, control: torch.Tensor | None) -> torch.Tensor:
-        """Modelled values ``(batch, frames, n_modelled)`` and the control ``(batch, frames,
-        n_control)`` (or ``None``: the flow models it too, or it is unknown) -> features
-        ``(batch, frames, n_features)``, constant features 0."""
-        features = x.new_zeros(x.shape[:2] + (self.config.n_features,))
-        features[..., self.modelled] = x
-        if control is not None:
-            features[..., self.control] = control
-        return features
 
 
 class Glow(MotionFlow):
@@ -272,7 +244,7 @@ class Glow(MotionFlow):
         n, temperature = self._check_common(n, temperature, seed)
         self._refuse_prefix(prefix)
         if self.config.conditional:
-            control = self._normalised_control(control, n, frames)
+            control = self._normalized_control(control, n, frames)
             frames = control.shape[1]
         else:
             control = None
@@ -291,3 +263,6 @@ class Glow(MotionFlow):
             line += f"; then {shape['split']} channels split off to z" if shape["split"] else "; all to z"
             lines.append(line)
         return lines
+
+
+CARD = ModelCard("glow", Glow, GlowConfig, schedule=henter_schedule(20_000, "fixed-length"))
