@@ -28,9 +28,10 @@ import torch
 from . import checks, data, training
 from . import models
 
-DEFAULTS = {"epochs": 30, "batch_size": 32, "lr": 1e-3, "schedule": "cosine", "warmup_steps": 0,
-            "grad_clip": 1.0, "max_steps": None}
-"""Without ``--paper``: a laptop run."""
+DEFAULTS = {"epochs": 30, **{name: getattr(training.TrainConfig(), name)
+                             for name in ("batch_size", "lr", "schedule", "warmup_steps", "grad_clip", "max_steps")}}
+"""Without ``--paper``: :class:`motionlab.training.TrainConfig`'s defaults (the one place they are
+written), except 30 epochs instead of 20: a command-line run is a longer one than a notebook's."""
 
 FLAGS = {"epochs": "--epochs", "batch_size": "--batch-size", "lr": "--lr", "schedule": "--schedule",
          "warmup_steps": "--warmup-steps", "max_steps": "--max-steps", "stage_epochs": "--stage-epochs"}
