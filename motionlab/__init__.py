@@ -12,8 +12,8 @@ __version__ = "0.1.0"
 
 __all__ = ["asfamc", "bvh", "checks", "claims", "clip", "cmu_locomotion", "colab", "comparison",
            "contacts", "cpu", "data", "download", "engine", "experiments", "files", "filters",
-           "live", "metrics", "models", "pretrained", "progress", "representation", "rotations",
-           "skeleton", "synthetic", "text", "train", "training", "viz", "widgets"]
+           "live", "metrics", "models", "pretrained", "progress", "recipes", "representation",
+           "rotations", "skeleton", "synthetic", "text", "train", "training", "viz", "widgets"]
 """Every module and subpackage of the library (tests/test_package.py keeps it complete)."""
 
 
@@ -63,6 +63,8 @@ def __getattr__(name: str):
             import motionlab.pretrained as module
         case "progress":
             import motionlab.progress as module
+        case "recipes":
+            import motionlab.recipes as module
         case "representation":
             import motionlab.representation as module
         case "rotations":

@@ -118,7 +118,7 @@ LAYERS = {
     "models": {"models", "models.base", "models.flows", "models.conv_ae", "models.vae", "models.vae_lstm",
                "models.lstm", "models.glow", "models.moglow", "models.dfn", "engine", "engine.recurrent",
                "engine.stream"},
-    "training": {"training", "train", "pretrained"},
+    "training": {"training", "train", "pretrained", "recipes"},
     "course": {"experiments", "comparison", "viz", "live", "widgets"},
 }
 """The library from the bottom up: where each module stands. A new module goes in one."""

@@ -79,6 +79,27 @@ def eval_mode(model: torch.nn.Module):
         model.train(was_training)
 
 
+def check_tensor(x, name: str, features: int | tuple[int, ...], min_frames: int = 1, *, even: bool = False,
+                 multiple: int = 1, finite: bool = True, frames_text: str | None = None) -> None:
+    """The tensor twin of :func:`motionlab.checks.array`, for the models' batches: ``x`` must be
+    a ``(batch, frames, features)`` tensor (``features`` one size or several allowed), with at
+    least ``min_frames`` frames, an even number of them (``even``) or a multiple of
+    ``multiple``, and (``finite``) no NaN or infinite value; else ``ValueError`` naming ``name``,
+    what was expected and what came."""
+    allowed = (features,) if isinstance(features, int) else tuple(features)
+    want = " or ".join(str(f) for f in allowed)
+    frames = frames_text or ("even frames" if even else "frames" if multiple > 1 or min_frames < 1
+                             else f"frames >= {min_frames}")
+    expected = f"(batch, {frames}, {want})" + (f" with frames a multiple of {multiple}" if multiple > 1 else "")
+    if not isinstance(x, torch.Tensor):
+        raise ValueError(f"{name}: expected {expected} tensor, got {type(x).__name__}")
+    if (x.ndim != 3 or x.shape[-1] not in allowed or x.shape[0] == 0 or x.shape[1] < max(min_frames, 1)
+            or (even and x.shape[1] % 2) or x.shape[1] % multiple):
+        raise ValueError(f"{name}: expected {expected}, got {tuple(x.shape)}")
+    if finite and not torch.isfinite(x).all():
+        raise ValueError(f"{name}: contains NaN or infinite values")
+
+
 def generator_for(seed) -> torch.Generator:
     """A CPU ``torch.Generator`` seeded with ``seed`` (a whole number >= 0)."""
     return torch.Generator().manual_seed(checks.whole(seed, "seed", 0))

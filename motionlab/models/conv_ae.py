@@ -25,7 +25,7 @@ from torch import nn
 
 from .. import checks
 from ..representation import N_POSE
-from .base import contact_term, eval_mode
+from .base import check_tensor, contact_term, eval_mode
 from .modelcard import NO_CLIP, ModelCard, choice, paper
 
 
@@ -103,14 +103,7 @@ class ConvAutoencoder(nn.Module):
 
     def _check(self, x: torch.Tensor, name: str = "x", even: bool = True) -> None:
         """Refuse anything but a finite tensor ``(batch, frames, n_features)`` (even frames if ``even``)."""
-        expected = f"(batch, {'even ' if even else ''}frames, {self.config.n_features})"
-        if not isinstance(x, torch.Tensor):
-            raise ValueError(f"{name}: expected {expected} tensor, got {type(x).__name__}")
-        if (x.ndim != 3 or x.shape[-1] != self.config.n_features or 0 in x.shape[:2]
-                or (even and x.shape[1] % 2)):
-            raise ValueError(f"{name}: expected {expected}, got {tuple(x.shape)}")
-        if not torch.isfinite(x).all():
-            raise ValueError(f"{name}: contains NaN or infinite values")
+        check_tensor(x, name, self.config.n_features, even=even, frames_text=None if even else "frames")
 
     def encode(self, x: torch.Tensor, return_indices: bool = False):
         """Φ(x) = Ψ(ReLU(x * W + b)): ``(batch, frames, n_features)`` -> ``(batch, frames // 2, filters)``."""

@@ -45,7 +45,7 @@ from torch import nn
 from .. import checks
 from . import gaussian
 from ..skeleton import LOCOMOTION
-from .base import Generated, GenerativeModel, eval_mode, generator_for
+from .base import Generated, GenerativeModel, check_tensor, eval_mode, generator_for
 from .modelcard import NO_CLIP, ModelCard, choice, paper
 
 STAGES = ("frame", "sequence", "dynamics")
@@ -435,12 +435,7 @@ class DFN(GenerativeModel, nn.Module):
     # -- checks --------------------------------------------------------------------------
 
     def _check(self, x: torch.Tensor, name: str, min_frames: int = 1) -> None:
-        n = self.config.n_features
-        if not isinstance(x, torch.Tensor) or x.ndim != 3 or x.shape[-1] != n or x.shape[1] < min_frames:
-            shape = tuple(x.shape) if isinstance(x, torch.Tensor) else type(x).__name__
-            raise ValueError(f"{name}: expected (batch, frames >= {min_frames}, {n}), got {shape}")
-        if not torch.isfinite(x).all():
-            raise ValueError(f"{name}: contains NaN or infinite values")
+        check_tensor(x, name, self.config.n_features, min_frames)
 
     # -- stages --------------------------------------------------------------------------
 

@@ -37,7 +37,7 @@ import numpy as np
 import torch
 
 from .. import checks
-from .base import Generated, generator_for
+from .base import Generated, check_tensor, generator_for
 from .flows import ConvCouplingNet, GaussianPrior, MotionFlow, MultiScaleFlow, henter_schedule
 from .modelcard import ModelCard
 
@@ -122,12 +122,8 @@ class Glow(MotionFlow):
     # -- data in and out -----------------------------------------------------------------
 
     def _check(self, batch: torch.Tensor) -> None:
-        n = self.config.n_features
-        multiple = 2 ** (self.config.levels - 1)
-        if not isinstance(batch, torch.Tensor) or batch.ndim != 3 or batch.shape[-1] != n \
-                or batch.shape[1] % multiple or batch.shape[1] == 0:
-            shape = tuple(batch.shape) if isinstance(batch, torch.Tensor) else type(batch).__name__
-            raise ValueError(f"batch: expected (batch, frames, {n}) with frames a multiple of {multiple}, got {shape}")
+        check_tensor(batch, "batch", self.config.n_features, multiple=2 ** (self.config.levels - 1), finite=False,
+                     frames_text="frames")
 
     def split_features(self, batch: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor | None]:
         """``(x, cond)``: the flow's data ``(batch, frames, n_modelled)`` and the control

@@ -31,7 +31,7 @@ from torch import nn
 
 from .. import checks
 from ..engine import recurrent
-from .base import Generated, GenerativeModel, eval_mode
+from .base import Generated, GenerativeModel, check_tensor, eval_mode
 from .modelcard import NO_CLIP, ModelCard, choice
 
 
@@ -110,10 +110,7 @@ class MotionLSTM(GenerativeModel, nn.Module):
         self.readout = nn.Linear(config.hidden, outputs)
 
     def _check(self, x: torch.Tensor, name: str, features: int, min_frames: int = 1) -> None:
-        if x.ndim != 3 or x.shape[-1] != features or x.shape[1] < min_frames:
-            raise ValueError(f"{name}: expected (batch, frames >= {min_frames}, {features}), got {tuple(x.shape)}")
-        if not torch.isfinite(x).all():
-            raise ValueError(f"{name}: contains NaN or infinite values")
+        check_tensor(x, name, features, min_frames)
 
     def forward(self, frames: torch.Tensor, next_control: torch.Tensor | None = None,
                 state: tuple[torch.Tensor, torch.Tensor] | None = None):

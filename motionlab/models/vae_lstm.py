@@ -41,7 +41,7 @@ from torch import nn
 
 from .. import checks
 from . import gaussian
-from .base import Generated, GenerativeModel, eval_mode, generator_for
+from .base import Generated, GenerativeModel, check_tensor, eval_mode, generator_for
 from .modelcard import NO_CLIP, ModelCard, choice, paper
 
 POOLING = 4
@@ -268,12 +268,7 @@ class VAELSTM(GenerativeModel, nn.Module):
     # -- checks --------------------------------------------------------------------------
 
     def _check(self, x: torch.Tensor, name: str, features: int | tuple[int, ...], min_frames: int = 1) -> None:
-        allowed = (features,) if isinstance(features, int) else features
-        if x.ndim != 3 or x.shape[-1] not in allowed or x.shape[1] < min_frames:
-            want = " or ".join(str(f) for f in allowed)
-            raise ValueError(f"{name}: expected (batch, frames >= {min_frames}, {want}), got {tuple(x.shape)}")
-        if not torch.isfinite(x).all():
-            raise ValueError(f"{name}: contains NaN or infinite values")
+        check_tensor(x, name, features, min_frames)
 
     # -- the parts -----------------------------------------------------------------------
 
