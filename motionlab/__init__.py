@@ -10,7 +10,7 @@ from __future__ import annotations
 
 __version__ = "0.1.0"
 
-__all__ = ["asfamc", "bvh", "checks", "claims", "clip", "cmu_locomotion", "colab", "data", "download", "experiments", "filters", "metrics", "models",
+__all__ = ["asfamc", "bvh", "checkpoints", "checks", "claims", "clip", "cmu_locomotion", "colab", "data", "download", "experiments", "filters", "metrics", "models",
            "pretrained", "representation", "rotations", "skeleton", "synthetic", "training", "viz", "widgets"]
 
 
@@ -22,6 +22,8 @@ def __getattr__(name: str):
             import motionlab.asfamc as module
         case "bvh":
             import motionlab.bvh as module
+        case "checkpoints":
+            import motionlab.checkpoints as module
         case "checks":
             import motionlab.checks as module
         case "claims":

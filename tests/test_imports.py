@@ -3,7 +3,8 @@ the loader (:mod:`motionlab.data`).
 
 Every ``from . import x`` / ``from .x import y`` (and ``from ..x``, in ``motionlab/models``)
 counts, at the top of a module or inside a function (a function-level import only hides a
-cycle). Model files are named ``models.<file>``.
+cycle). Model files are named ``models.<file>``, the training package's ``training.<file>`` (its
+``__init__`` is ``training``).
 """
 import ast
 from pathlib import Path
@@ -11,8 +12,9 @@ from pathlib import Path
 import pytest
 
 PACKAGE = Path(__file__).resolve().parents[1] / "motionlab"
-FILES = {("models." if p.parent.name == "models" else "") + p.stem: p
-         for p in sorted(PACKAGE.glob("*.py")) + sorted((PACKAGE / "models").glob("*.py"))}
+FILES = {("" if p.parent == PACKAGE else f"{p.parent.name}.") + p.stem: p
+         for p in sorted(PACKAGE.glob("*.py")) + sorted(PACKAGE.glob("*/*.py"))}
+FILES["training"] = FILES.pop("training.__init__")    # the package re-exports its modules' names
 MODULES = sorted(name for name in FILES if not name.endswith("__init__"))
 
 
@@ -29,7 +31,8 @@ def _resolve(package: str, name: str) -> str | None:
 
 def imported_modules(module: str) -> set[str]:
     """The ``motionlab`` modules (of :data:`MODULES`) that ``motionlab.<module>`` imports."""
-    here = module.rpartition(".")[0]                     # "models" or ""
+    # the package the module is in: "models", "training" (its modules and itself) or ""
+    here = module if FILES[module].name == "__init__.py" else module.rpartition(".")[0]
     found = set()
     for node in ast.walk(ast.parse(FILES[module].read_text())):
         if isinstance(node, ast.ImportFrom) and node.level >= 1:
@@ -96,9 +99,23 @@ def test_clip_and_the_cmu_unit_live_in_one_place():
 
 
 def test_model_files_never_import_the_course_code():
+    course = {"training", "checkpoints", "pretrained", "experiments", "synthetic", "data"}
     for module in MODULES:
         if module.startswith("models."):
-            assert not GRAPH[module] & {"training", "pretrained", "experiments", "synthetic", "data"}, module
+            assert not {m.partition(".")[0] for m in GRAPH[module]} & course, module
+
+
+def test_the_training_package_and_checkpoints():
+    """The loop never needs checkpoints; checkpoints build on the loop (``train_or_load``) and
+    the package gives their names too, looked up on first use (importing them there would be
+    a cycle)."""
+    assert {"training.config", "training.loop"} <= GRAPH["checkpoints"]
+    assert not any("checkpoints" in GRAPH[m] for m in MODULES if m.startswith("training."))
+    assert {"training.config", "training.loop", "training.parallel", "training.state"} <= GRAPH["training"]
+    from motionlab import checkpoints, training
+    for name in ("Checkpoint", "CheckpointMismatch", "load_checkpoint", "save_checkpoint", "train_or_load",
+                 "register_model", "registered_models", "CHECKPOINT_FORMAT"):
+        assert getattr(training, name) is getattr(checkpoints, name) and name in dir(training)
 
 
 def test_rotations_depend_on_nothing_else_in_the_library():
