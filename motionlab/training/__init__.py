@@ -24,6 +24,7 @@ from __future__ import annotations
 from .config import PRECISIONS, History, NonFiniteLossError, TrainConfig, pick_device, seed_everything
 from .loop import adam, seconds_per_step, summary_line, train, train_stages
 from .parallel import distributed, init_distributed
+from .schedule import lr_factor
 from .state import STATE_FORMAT, save_state
 
 # motionlab.checkpoints imports this package (History, train), so its names are looked up
@@ -32,7 +33,7 @@ _CHECKPOINT_NAMES = ("CHECKPOINT_FORMAT", "Checkpoint", "CheckpointMismatch", "l
                      "registered_models", "save_checkpoint", "train_or_load")
 
 __all__ = ["PRECISIONS", "STATE_FORMAT", "History", "NonFiniteLossError", "TrainConfig", "adam", "distributed",
-           "init_distributed", "pick_device", "save_state", "seconds_per_step", "seed_everything", "summary_line",
+           "init_distributed", "lr_factor", "pick_device", "save_state", "seconds_per_step", "seed_everything", "summary_line",
            "train", "train_stages", *_CHECKPOINT_NAMES]
 
 

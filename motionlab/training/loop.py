@@ -3,7 +3,6 @@ the optimiser they use and the timing and summary they print."""
 from __future__ import annotations
 
 import contextlib
-import math
 import time
 from pathlib import Path
 
@@ -14,6 +13,7 @@ from torch import nn
 from .. import progress
 from .config import PRECISIONS, History, NonFiniteLossError, TrainConfig, pick_device, seed_everything
 from .parallel import _Loss, distributed
+from .schedule import lr_factor
 from .state import _random_states, _restore_state, _set_random_states, save_state
 
 
@@ -114,16 +114,8 @@ def train(model: nn.Module, data, config: TrainConfig | None = None,
     if config.max_steps is not None:
         total = min(total, config.max_steps)
     optimizer = adam(model.parameters(), config.lr, config.weight_decay)
-
-    def lr_factor(step: int) -> float:
-        if step < config.warmup_steps:
-            return (step + 1) / config.warmup_steps
-        if config.schedule == "constant":
-            return 1.0
-        progress = (step - config.warmup_steps) / max(1, total - config.warmup_steps)
-        return config.min_lr_ratio + (1 - config.min_lr_ratio) * 0.5 * (1 + math.cos(math.pi * progress))
-
-    scheduler = torch.optim.lr_scheduler.LambdaLR(optimizer, lr_factor)
+    scheduler = torch.optim.lr_scheduler.LambdaLR(    # a lambda: LambdaLR saves nothing of a function
+        optimizer, lambda step: lr_factor(step, total, config.warmup_steps, config.schedule, config.min_lr_ratio))
     low_precision = PRECISIONS[config.precision]
     scaler = torch.amp.GradScaler(device.type, enabled=config.precision == "fp16")   # fp16 gradients underflow
 
