@@ -25,15 +25,15 @@ from .config import PRECISIONS, History, NonFiniteLossError, TrainConfig, pick_d
 from .loop import adam, seconds_per_step, summary_line, train, train_stages
 from .parallel import distributed, init_distributed
 from .schedule import lr_factor
-from .state import STATE_FORMAT, save_state
+from .state import STATE_FORMAT, RunState, restore_state, save_state
 
 # motionlab.checkpoints imports this package (History, train), so its names are looked up
 # on first use rather than imported here, which would be a cycle
 _CHECKPOINT_NAMES = ("CHECKPOINT_FORMAT", "Checkpoint", "CheckpointMismatch", "load_checkpoint", "register_model",
                      "registered_models", "save_checkpoint", "train_or_load")
 
-__all__ = ["PRECISIONS", "STATE_FORMAT", "History", "NonFiniteLossError", "TrainConfig", "adam", "distributed",
-           "init_distributed", "lr_factor", "pick_device", "save_state", "seconds_per_step", "seed_everything", "summary_line",
+__all__ = ["PRECISIONS", "STATE_FORMAT", "History", "RunState", "NonFiniteLossError", "TrainConfig", "adam", "distributed",
+           "init_distributed", "lr_factor", "pick_device", "restore_state", "save_state", "seconds_per_step", "seed_everything", "summary_line",
            "train", "train_stages", *_CHECKPOINT_NAMES]
 
 

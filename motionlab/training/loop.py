@@ -14,7 +14,7 @@ from .. import progress
 from .config import PRECISIONS, History, NonFiniteLossError, TrainConfig, pick_device, seed_everything
 from .parallel import _Loss, distributed
 from .schedule import lr_factor
-from .state import _random_states, _restore_state, _set_random_states, save_state
+from .state import RunState, _random_states, _set_random_states, restore_state, save_state
 
 
 def _datasets(data) -> tuple[torch.utils.data.Dataset, torch.utils.data.Dataset | None]:
@@ -124,28 +124,26 @@ def train(model: nn.Module, data, config: TrainConfig | None = None,
             return contextlib.nullcontext()
         return torch.autocast(device.type, dtype=low_precision)
 
-    # where the run is: steps done, the epoch and the batches done in it, and the batch
-    # generator's state when that epoch began (its shuffle is drawn from it)
-    run = {"step": 0, "epoch": start_epoch, "position": 0, "epoch_generator": generator.get_state(),
-           "start_step": start_step, "start_epoch": start_epoch}
+    run = RunState(epoch=start_epoch, epoch_generator=generator.get_state(), start_step=start_step,
+                   start_epoch=start_epoch)
     if resume and Path(state_file).exists():
-        history = _restore_state(state_file, model, optimizer, scheduler, config, run, scaler)
-        start_step, start_epoch = run["start_step"], run["start_epoch"]
-        generator.set_state(run["epoch_generator"])
-    if config.estimate and rank == 0 and run["step"] < total:
+        history = restore_state(state_file, model, optimizer, scheduler, config, run, scaler)
+        start_step, start_epoch = run.start_step, run.start_epoch
+        generator.set_state(run.epoch_generator)
+    if config.estimate and rank == 0 and run.step < total:
         batch = next(iter(torch.utils.data.DataLoader(train_set, batch_size=config.batch_size // world)))
         seconds = seconds_per_step(model, batch.to(device), config)
-        print(f"expected: {seconds:.3g} s per step on {device}, {_duration((total - run['step']) * seconds)} "
-              f"for {total - run['step']} steps")
-    bar = progress.bar(total, initial=run["step"], desc=type(model).__name__, unit="step",
+        print(f"expected: {seconds:.3g} s per step on {device}, {_duration((total - run.step) * seconds)} "
+              f"for {total - run.step} steps")
+    bar = progress.bar(total, initial=run.step, desc=type(model).__name__, unit="step",
                        disable=not config.progress or rank > 0)
     began = last_save = time.perf_counter()
     seconds_before = history.seconds
-    step, last_finite = run["step"], None
+    step, last_finite = run.step, None
 
     def save() -> None:
         history.seconds = seconds_before + time.perf_counter() - began
-        run.update(step=step)
+        run.step = step
         generators = _random_states()
         if world > 1:                     # every process's generators, so that each resumes its own
             everyone = [None] * world
@@ -155,15 +153,15 @@ def train(model: nn.Module, data, config: TrainConfig | None = None,
             save_state(state_file, model, optimizer, scheduler, config, history, run, generators, scaler)
 
     try:
-        for epoch in range(run["epoch"], start_epoch + config.epochs):
+        for epoch in range(run.epoch, start_epoch + config.epochs):
             if step >= total:
                 break
-            if epoch != run["epoch"]:                   # a new epoch (not the one being resumed)
-                run.update(epoch=epoch, position=0, epoch_generator=generator.get_state())
+            if epoch != run.epoch:                      # a new epoch (not the one being resumed)
+                run.begin_epoch(epoch, generator)
             if sampler is not None:
                 sampler.set_epoch(epoch)                # each epoch's shuffle, the same in every process
             batches = iter(loader)
-            for _ in range(run["position"]):            # resuming mid-epoch: the same shuffle, skipped
+            for _ in range(run.position):               # resuming mid-epoch: the same shuffle, skipped
                 next(batches)
             for batch in batches:
                 with mixed_precision():
@@ -193,7 +191,7 @@ def train(model: nn.Module, data, config: TrainConfig | None = None,
                 row.update({key: float(value) for key, value in logged.items()})
                 history.train.append(row)
                 step += 1
-                run["position"] += 1
+                run.position += 1
                 bar.update(1)
                 if state_file is not None and (
                         (config.save_every_steps and step % config.save_every_steps == 0) or
@@ -209,7 +207,7 @@ def train(model: nn.Module, data, config: TrainConfig | None = None,
                                 val=f"{val['loss']:.4f}")
             elif last_finite is not None:
                 bar.set_postfix(loss=f"{last_finite:.4f}")
-            run.update(epoch=epoch + 1, position=0, epoch_generator=generator.get_state())
+            run.begin_epoch(epoch + 1, generator)
     finally:
         bar.close()
         seconds = time.perf_counter() - began

@@ -1,10 +1,12 @@
-"""The state a training run can resume from exactly: :func:`save_state` writes it,
-:func:`restore_state` reads it back, and every random generator travels with it."""
+"""The state a training run can resume from exactly: where the run is (:class:`RunState`),
+:func:`save_state` to write it with the weights, optimiser, schedule, history and every
+random generator, and :func:`restore_state` to read it back."""
 from __future__ import annotations
 
 import dataclasses
 import os
 import random
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -20,6 +22,45 @@ _RESUME_FREE = ("device", "num_threads", "progress", "save_every_steps", "save_e
 """TrainConfig fields a resumed run may change: they do not change what is computed."""
 
 
+@dataclass
+class RunState:
+    """Where a run of :func:`motionlab.training.train` is, besides its weights, optimiser and
+    history: what it needs to go on with the very batch it would have trained next.
+
+    Attributes:
+        step: steps done in this run.
+        epoch: the epoch under way (numbered as in the history).
+        position: batches of that epoch done.
+        epoch_generator: the batch generator's state when that epoch began (its shuffle is
+            drawn from it).
+        start_step, start_epoch: the history's next step and epoch when the run began (a
+            run that continues a history numbers its rows on from there).
+    """
+
+    step: int = 0
+    epoch: int = 0
+    position: int = 0
+    epoch_generator: torch.Tensor = field(default_factory=lambda: torch.empty(0, dtype=torch.uint8))
+    start_step: int = 0
+    start_epoch: int = 0
+
+    def begin_epoch(self, epoch: int, generator: torch.Generator) -> None:
+        """Epoch ``epoch`` starts: no batch of it done, its shuffle drawn from ``generator`` as it is now."""
+        self.epoch, self.position, self.epoch_generator = epoch, 0, generator.get_state()
+
+    def to_dict(self) -> dict:
+        """Plain values for a state file (ints and a copy of the generator's state), under
+        the keys state files have always had."""
+        return {f.name: (value.clone() if isinstance(value, torch.Tensor) else int(value))
+                for f in dataclasses.fields(self) for value in [getattr(self, f.name)]}
+
+    def update(self, saved: dict) -> None:
+        """Take the values of a :meth:`to_dict` read back from a file (others are ignored)."""
+        for f in dataclasses.fields(self):
+            if f.name in saved:
+                setattr(self, f.name, saved[f.name])
+
+
 def _random_states() -> dict:
     """This process's random generators (torch, Python, numpy, CUDA) as plain values."""
     np_state = np.random.get_state()        # plain lists of ints: they also travel between processes
@@ -29,10 +70,10 @@ def _random_states() -> dict:
 
 
 def save_state(path: str | Path, model: nn.Module, optimizer, scheduler, config: TrainConfig,
-               history: History, run: dict, generators: dict | list | None = None, scaler=None) -> None:
-    """Write everything a run needs to continue exactly (see :func:`train`): the weights
-    and buffers, Adam's moments, the schedule, the history, where the run is in the data
-    and every random generator's state (``generators``: this process's by default, or a
+               history: History, run: RunState, generators: dict | list | None = None, scaler=None) -> None:
+    """Write everything a run needs to continue exactly (see :func:`motionlab.training.train`):
+    the weights and buffers, Adam's moments, the schedule, the history, where the run is
+    (``run``) and every random generator's state (``generators``: this process's by default, or a
     list with one per process of a distributed run). Plain tensors and values only; the
     file is replaced atomically, so a crash while saving leaves the previous state."""
     generators = _random_states() if generators is None else generators
@@ -43,7 +84,7 @@ def save_state(path: str | Path, model: nn.Module, optimizer, scheduler, config:
              "optimizer": optimizer.state_dict(), "scheduler": scheduler.state_dict(),
              "scaler": scaler.state_dict() if scaler is not None and scaler.is_enabled() else {},
              "history": history.to_dict(),
-             "run": {k: (v.clone() if isinstance(v, torch.Tensor) else int(v)) for k, v in run.items()},
+             "run": run.to_dict(),
              "rng": generators if isinstance(generators, list) else [generators]}
     path = Path(path)
     partial = path.with_name(path.name + ".partial")
@@ -70,9 +111,11 @@ def _tuples(value):
     return tuple(_tuples(v) for v in value) if isinstance(value, list) else value
 
 
-def _restore_state(path, model, optimizer, scheduler, config: TrainConfig, run: dict, scaler=None) -> History:
-    """Load :func:`save_state`'s file into the run; ``ValueError`` naming the file when it is
-    not such a file or was saved by a different model or config."""
+def restore_state(path, model, optimizer, scheduler, config: TrainConfig, run: RunState, scaler=None) -> History:
+    """Load :func:`save_state`'s file into the model, optimiser, schedule, gradient scaler,
+    ``run`` and this process's random generators, and return the saved history.
+    ``ValueError`` naming the file when it is not such a file, is damaged, or was saved by
+    a different model or config or by another number of processes."""
     try:
         state = torch.load(path, map_location="cpu", weights_only=True)
     except Exception as err:        # a damaged file, or one that is not a torch file at all
