@@ -32,9 +32,9 @@ from .state import STATE_FORMAT, RunState, restore_state, save_state
 _CHECKPOINT_NAMES = ("CHECKPOINT_FORMAT", "Checkpoint", "CheckpointMismatch", "load_checkpoint", "register_model",
                      "registered_models", "save_checkpoint", "train_or_load")
 
-__all__ = ["PRECISIONS", "STATE_FORMAT", "History", "RunState", "NonFiniteLossError", "TrainConfig", "adam", "distributed",
-           "init_distributed", "lr_factor", "pick_device", "restore_state", "save_state", "seconds_per_step", "seed_everything", "summary_line",
-           "train", "train_stages", *_CHECKPOINT_NAMES]
+__all__ = ["PRECISIONS", "STATE_FORMAT", "History", "NonFiniteLossError", "RunState", "TrainConfig", "adam",
+           "distributed", "init_distributed", "lr_factor", "pick_device", "restore_state", "save_state",
+           "seconds_per_step", "seed_everything", "summary_line", "train", "train_stages", *_CHECKPOINT_NAMES]
 
 
 def __getattr__(name: str):

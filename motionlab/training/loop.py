@@ -4,7 +4,10 @@ from __future__ import annotations
 
 import contextlib
 import time
+from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import torch
@@ -12,7 +15,8 @@ from torch import nn
 
 from .. import progress
 from .config import PRECISIONS, History, NonFiniteLossError, TrainConfig, pick_device, seed_everything
-from .parallel import _Loss, distributed
+from . import parallel
+from .parallel import distributed
 from .schedule import lr_factor
 from .state import RunState, _random_states, _set_random_states, restore_state, save_state
 
@@ -75,6 +79,61 @@ def train(model: nn.Module, data, config: TrainConfig | None = None,
     """
     config = config or TrainConfig()
     train_set, val_set = _datasets(data)
+    rank, world = _prepare(model, data, train_set, config, state_file, resume)
+    home = next(model.parameters(), torch.empty(0)).device
+    run = _setup(model, train_set, config, history or History(), state_file, rank, world)
+    if resume and Path(state_file).exists():
+        _resume(run)
+    if config.estimate and rank == 0 and run.state.step < run.total:
+        _print_estimate(run, train_set)
+    _start_clock(run)
+    try:
+        for epoch in range(run.state.epoch, run.state.start_epoch + config.epochs):
+            if run.state.step >= run.total:
+                break
+            _epoch(run, epoch, val_set)
+    finally:
+        _stop_clock(run)
+    if state_file is not None:
+        _save(run)
+    model.to(home).eval()
+    _print_summary(run, val_set)
+    return run.history
+
+
+@dataclass
+class _Run:
+    """What the steps of one :func:`train` call share: the model and what it trains with,
+    built by :func:`_setup`; where the run is (``state``, what a state file keeps); and the
+    progress bar, the clock and the last finite loss, kept up to date as it goes."""
+
+    model: nn.Module
+    config: TrainConfig
+    history: History
+    state: RunState
+    state_file: str | Path | None
+    device: torch.device
+    rank: int
+    world: int
+    generator: torch.Generator                       # the batches' shuffle (one process)
+    loader: torch.utils.data.DataLoader
+    sampler: torch.utils.data.DistributedSampler | None
+    compute: Callable[[torch.Tensor], dict[str, torch.Tensor]]   # model.loss, or its DDP wrapper
+    optimizer: torch.optim.Optimizer
+    scheduler: torch.optim.lr_scheduler.LambdaLR
+    scaler: torch.amp.GradScaler
+    total: int                                       # steps this run makes in all
+    bar: Any = None
+    began: float = 0.0                               # time.perf_counter() at the first step
+    last_save: float = 0.0
+    seconds_before: float = 0.0                      # the history's training time before this run
+    seconds: float = 0.0                             # this run's, once it has stopped
+    last_finite: float | None = None
+
+
+def _prepare(model: nn.Module, data, train_set, config: TrainConfig, state_file, resume: bool) -> tuple[int, int]:
+    """Check the arguments, give the model the data's normaliser, set torch's threads and
+    seed every generator; returns this process's ``(rank, world_size)``."""
     if len(train_set) == 0:
         raise ValueError("data: the training set is empty")
     if resume and state_file is None:
@@ -88,139 +147,174 @@ def train(model: nn.Module, data, config: TrainConfig | None = None,
         raise ValueError(f"batch_size: {config.batch_size} windows do not split over {world} processes; "
                          f"give a multiple of {world}")
     seed_everything(config.seed + rank)        # each process its own noise (dropout, sampling)
+    return rank, world
+
+
+def _setup(model: nn.Module, train_set, config: TrainConfig, history: History, state_file,
+           rank: int, world: int) -> _Run:
+    """Put the model on its device and build what the steps use: the batches, Adam, the
+    learning-rate schedule (:func:`lr_factor`), the gradient scaler, and where the run
+    starts (after ``history``'s last step and epoch)."""
     device = pick_device(config.device)
-    home = next(model.parameters(), torch.empty(0)).device
     model.to(device).train()
-    history = history or History()
     start_step = history.train[-1]["step"] + 1 if history.train else 0
     start_epoch = history.train[-1]["epoch"] + 1 if history.train else 0
-
     generator = torch.Generator().manual_seed(config.seed + start_epoch)
-    sampler = None
-    if torch.distributed.is_available() and torch.distributed.is_initialized():
-        sampler = torch.utils.data.DistributedSampler(train_set, num_replicas=world, rank=rank, shuffle=True,
-                                                      seed=config.seed, drop_last=True)
-        share = len(sampler)
-        loader = torch.utils.data.DataLoader(train_set, batch_size=config.batch_size // world, sampler=sampler,
-                                             drop_last=share > config.batch_size // world)
-        compute = torch.nn.parallel.DistributedDataParallel(
-            _Loss(model), device_ids=[device.index or torch.cuda.current_device()] if device.type == "cuda" else None)
+    if parallel.joined():
+        loader, sampler = parallel.shard(train_set, config.batch_size, rank, world, config.seed)
+        compute = parallel.data_parallel(model, device)
     else:
         loader = torch.utils.data.DataLoader(train_set, batch_size=config.batch_size, shuffle=True,
-                                             drop_last=len(train_set) > config.batch_size,
-                                             generator=generator)
-        compute = model.loss
+                                             drop_last=len(train_set) > config.batch_size, generator=generator)
+        sampler, compute = None, model.loss
     total = config.epochs * len(loader)
     if config.max_steps is not None:
         total = min(total, config.max_steps)
     optimizer = adam(model.parameters(), config.lr, config.weight_decay)
     scheduler = torch.optim.lr_scheduler.LambdaLR(    # a lambda: LambdaLR saves nothing of a function
         optimizer, lambda step: lr_factor(step, total, config.warmup_steps, config.schedule, config.min_lr_ratio))
-    low_precision = PRECISIONS[config.precision]
     scaler = torch.amp.GradScaler(device.type, enabled=config.precision == "fp16")   # fp16 gradients underflow
+    state = RunState(epoch=start_epoch, epoch_generator=generator.get_state(), start_step=start_step,
+                     start_epoch=start_epoch)
+    return _Run(model, config, history, state, state_file, device, rank, world, generator, loader, sampler,
+                compute, optimizer, scheduler, scaler, total)
 
-    def mixed_precision():
-        if low_precision is None:
-            return contextlib.nullcontext()
-        return torch.autocast(device.type, dtype=low_precision)
 
-    run = RunState(epoch=start_epoch, epoch_generator=generator.get_state(), start_step=start_step,
-                   start_epoch=start_epoch)
-    if resume and Path(state_file).exists():
-        history = restore_state(state_file, model, optimizer, scheduler, config, run, scaler)
-        start_step, start_epoch = run.start_step, run.start_epoch
-        generator.set_state(run.epoch_generator)
-    if config.estimate and rank == 0 and run.step < total:
-        batch = next(iter(torch.utils.data.DataLoader(train_set, batch_size=config.batch_size // world)))
-        seconds = seconds_per_step(model, batch.to(device), config)
-        print(f"expected: {seconds:.3g} s per step on {device}, {_duration((total - run.step) * seconds)} "
-              f"for {total - run.step} steps")
-    bar = progress.bar(total, initial=run.step, desc=type(model).__name__, unit="step",
-                       disable=not config.progress or rank > 0)
-    began = last_save = time.perf_counter()
-    seconds_before = history.seconds
-    step, last_finite = run.step, None
+def _resume(run: _Run) -> None:
+    """Continue from the state file: weights, optimiser, schedule, scaler, history, where the
+    run was and its random generators, the batches' shuffle included."""
+    run.history = restore_state(run.state_file, run.model, run.optimizer, run.scheduler, run.config, run.state,
+                                run.scaler)
+    run.generator.set_state(run.state.epoch_generator)
 
-    def save() -> None:
-        history.seconds = seconds_before + time.perf_counter() - began
-        run.step = step
-        generators = _random_states()
-        if world > 1:                     # every process's generators, so that each resumes its own
-            everyone = [None] * world
-            torch.distributed.all_gather_object(everyone, generators)
-            generators = everyone
-        if rank == 0:
-            save_state(state_file, model, optimizer, scheduler, config, history, run, generators, scaler)
 
-    try:
-        for epoch in range(run.epoch, start_epoch + config.epochs):
-            if step >= total:
-                break
-            if epoch != run.epoch:                      # a new epoch (not the one being resumed)
-                run.begin_epoch(epoch, generator)
-            if sampler is not None:
-                sampler.set_epoch(epoch)                # each epoch's shuffle, the same in every process
-            batches = iter(loader)
-            for _ in range(run.position):               # resuming mid-epoch: the same shuffle, skipped
-                next(batches)
-            for batch in batches:
-                with mixed_precision():
-                    terms = compute(batch.to(device))
-                loss = terms["loss"].float()
-                logged = {key: value.detach().float().reshape(()) for key, value in terms.items()}
-                if world > 1:                           # the global batch's mean, the same in every process
-                    values = torch.stack(list(logged.values()))
-                    torch.distributed.all_reduce(values)
-                    logged = dict(zip(logged, values / world))
-                if not torch.isfinite(logged["loss"]):
-                    raise NonFiniteLossError(
-                        f"the loss became {loss.item()} at epoch {epoch}, step {start_step + step} "
-                        f"(last finite loss: {last_finite}). Try a lower learning rate "
-                        f"(lr={config.lr:g}), gradient clipping (grad_clip={config.grad_clip}), or "
-                        "check the data for NaNs.")
-                optimizer.zero_grad(set_to_none=True)
-                scaler.scale(loss).backward()
-                if config.grad_clip is not None:
-                    scaler.unscale_(optimizer)          # clip the true gradients (a no-op without fp16)
-                    nn.utils.clip_grad_norm_(model.parameters(), config.grad_clip)
-                scaler.step(optimizer)                  # fp16: skips a step whose gradients overflowed
-                scaler.update()
-                scheduler.step()
-                last_finite = float(logged["loss"])
-                row = {"step": start_step + step, "epoch": epoch, "lr": optimizer.param_groups[0]["lr"]}
-                row.update({key: float(value) for key, value in logged.items()})
-                history.train.append(row)
-                step += 1
-                run.position += 1
-                bar.update(1)
-                if state_file is not None and (
-                        (config.save_every_steps and step % config.save_every_steps == 0) or
-                        (config.save_every_s and time.perf_counter() - last_save >= config.save_every_s)):
-                    save()
-                    last_save = time.perf_counter()
-                if step >= total:
-                    break
-            if val_set is not None and len(val_set) > 0:
-                val = _mean_terms(model, val_set, config.batch_size, device)
-                history.val.append({"step": start_step + step - 1, "epoch": epoch, **val})
-                bar.set_postfix(loss=f"{last_finite}" if last_finite is None else f"{last_finite:.4f}",
-                                val=f"{val['loss']:.4f}")
-            elif last_finite is not None:
-                bar.set_postfix(loss=f"{last_finite:.4f}")
-            run.begin_epoch(epoch + 1, generator)
-    finally:
-        bar.close()
-        seconds = time.perf_counter() - began
-        history.seconds = seconds_before + seconds
-    if state_file is not None:
-        save()
-    model.to(home).eval()
-    if last_finite is None and history.train:
-        last_finite = history.train[-1]["loss"]
-    if config.progress and rank == 0:   # a bar's saved state is its first; this line is what a saved notebook keeps
-        print(summary_line(type(model).__name__, step, seconds, last_finite,
+def _print_estimate(run: _Run, train_set) -> None:
+    batch = next(iter(torch.utils.data.DataLoader(train_set, batch_size=run.config.batch_size // run.world)))
+    seconds = seconds_per_step(run.model, batch.to(run.device), run.config)
+    left = run.total - run.state.step
+    print(f"expected: {seconds:.3g} s per step on {run.device}, {_duration(left * seconds)} for {left} steps")
+
+
+def _start_clock(run: _Run) -> None:
+    """The progress bar (rank 0 only) and the clock."""
+    run.bar = progress.bar(run.total, initial=run.state.step, desc=type(run.model).__name__, unit="step",
+                           disable=not run.config.progress or run.rank > 0)
+    run.began = run.last_save = time.perf_counter()
+    run.seconds_before = run.history.seconds
+
+
+def _stop_clock(run: _Run) -> None:
+    run.bar.close()
+    run.seconds = time.perf_counter() - run.began
+    run.history.seconds = run.seconds_before + run.seconds
+
+
+def _epoch(run: _Run, epoch: int, val_set) -> None:
+    """Train on epoch ``epoch`` (what is left of it when resuming), saving the state when
+    due, until its batches or the run's steps run out; then validate."""
+    state = run.state
+    if epoch != state.epoch:                    # a new epoch (not the one being resumed)
+        state.begin_epoch(epoch, run.generator)
+    if run.sampler is not None:
+        run.sampler.set_epoch(epoch)            # each epoch's shuffle, the same in every process
+    batches = iter(run.loader)
+    for _ in range(state.position):             # resuming mid-epoch: the same shuffle, skipped
+        next(batches)
+    for batch in batches:
+        _step(run, batch, epoch)
+        state.step += 1
+        state.position += 1
+        run.bar.update(1)
+        if _save_due(run):
+            _save(run)
+            run.last_save = time.perf_counter()
+        if state.step >= run.total:
+            break
+    _validate(run, val_set, epoch)
+    state.begin_epoch(epoch + 1, run.generator)
+
+
+def _step(run: _Run, batch: torch.Tensor, epoch: int) -> None:
+    """One optimiser step on ``batch`` and its row of the history: the loss in the configured
+    precision, checked to be finite before it reaches the weights, then backward (scaled
+    for fp16), gradient clipping, Adam and the learning-rate schedule."""
+    config = run.config
+    with _autocast(run.device, config.precision):
+        terms = run.compute(batch.to(run.device))
+    loss = terms["loss"].float()
+    logged = {key: value.detach().float().reshape(()) for key, value in terms.items()}
+    if run.world > 1:                           # the global batch's mean, the same in every process
+        logged = parallel.mean_over_processes(logged, run.world)
+    _check_finite(run, logged["loss"], loss, epoch)
+    run.optimizer.zero_grad(set_to_none=True)
+    run.scaler.scale(loss).backward()
+    if config.grad_clip is not None:
+        run.scaler.unscale_(run.optimizer)      # clip the true gradients (a no-op without fp16)
+        nn.utils.clip_grad_norm_(run.model.parameters(), config.grad_clip)
+    run.scaler.step(run.optimizer)              # fp16: skips a step whose gradients overflowed
+    run.scaler.update()
+    run.scheduler.step()
+    run.last_finite = float(logged["loss"])
+    row = {"step": run.state.start_step + run.state.step, "epoch": epoch,
+           "lr": run.optimizer.param_groups[0]["lr"]}
+    row.update({key: float(value) for key, value in logged.items()})
+    run.history.train.append(row)
+
+
+def _autocast(device: torch.device, precision: str):
+    """``torch.autocast`` to ``precision``'s dtype (:data:`PRECISIONS`); nothing for fp32."""
+    dtype = PRECISIONS[precision]
+    return contextlib.nullcontext() if dtype is None else torch.autocast(device.type, dtype=dtype)
+
+
+def _check_finite(run: _Run, logged_loss: torch.Tensor, loss: torch.Tensor, epoch: int) -> None:
+    """Stop with :class:`NonFiniteLossError`, before the step, when the (logged) loss is NaN
+    or infinite."""
+    if not torch.isfinite(logged_loss):
+        raise NonFiniteLossError(
+            f"the loss became {loss.item()} at epoch {epoch}, step {run.state.start_step + run.state.step} "
+            f"(last finite loss: {run.last_finite}). Try a lower learning rate "
+            f"(lr={run.config.lr:g}), gradient clipping (grad_clip={run.config.grad_clip}), or "
+            "check the data for NaNs.")
+
+
+def _validate(run: _Run, val_set, epoch: int) -> None:
+    """The mean loss terms on the validation set, logged in the history and shown on the bar."""
+    if val_set is not None and len(val_set) > 0:
+        val = _mean_terms(run.model, val_set, run.config.batch_size, run.device)
+        run.history.val.append({"step": run.state.start_step + run.state.step - 1, "epoch": epoch, **val})
+        loss = run.last_finite
+        run.bar.set_postfix(loss=f"{loss}" if loss is None else f"{loss:.4f}", val=f"{val['loss']:.4f}")
+    elif run.last_finite is not None:
+        run.bar.set_postfix(loss=f"{run.last_finite:.4f}")
+
+
+def _save_due(run: _Run) -> bool:
+    """Whether ``config.save_every_steps`` or ``config.save_every_s`` asks for a save now."""
+    config = run.config
+    return run.state_file is not None and bool(
+        (config.save_every_steps and run.state.step % config.save_every_steps == 0) or
+        (config.save_every_s and time.perf_counter() - run.last_save >= config.save_every_s))
+
+
+def _save(run: _Run) -> None:
+    """Write the state file (rank 0) with every process's random generators, so that each
+    resumes its own."""
+    run.history.seconds = run.seconds_before + time.perf_counter() - run.began
+    generators = parallel.gathered(_random_states(), run.world)
+    if run.rank == 0:
+        save_state(run.state_file, run.model, run.optimizer, run.scheduler, run.config, run.history, run.state,
+                   generators, run.scaler)
+
+
+def _print_summary(run: _Run, val_set) -> None:
+    history, last = run.history, run.last_finite
+    if last is None and history.train:
+        last = history.train[-1]["loss"]
+    # a bar's saved state is its first; this line is what a saved notebook keeps
+    if run.config.progress and run.rank == 0:
+        print(summary_line(type(run.model).__name__, run.state.step, run.seconds, last,
                            history.val[-1]["loss"] if val_set is not None and history.val else None))
-    return history
 
 
 def adam(parameters, lr: float, weight_decay: float = 0.0) -> torch.optim.Adam:
