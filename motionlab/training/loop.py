@@ -318,12 +318,11 @@ def _print_summary(run: _Run, val_set) -> None:
 
 
 def adam(parameters, lr: float, weight_decay: float = 0.0) -> torch.optim.Adam:
-    """Adam over the ``parameters`` that require gradients, with PyTorch's fused kernel (one
-    pass over all weights per step instead of one small operation per tensor) where this
-    PyTorch has one for their device, the ordinary one otherwise: the same update either way.
-    Measured on 2 CPU cores at laptop size, batch 32 (``benchmarks/training_speed.py``): the
-    VAE makes 1.55x as many steps per second, Glow, MoGlow and the VAE-LSTM about 1.1x; the
-    other models' steps change by less than the run-to-run noise."""
+    """Adam over the ``parameters`` that require gradients, with PyTorch's fused kernel where
+    this PyTorch has one for their device, the ordinary one otherwise: the same update either
+    way. The fused kernel updates all weights in one pass per step instead of a small
+    operation per tensor, which saves time when a model has many small tensors
+    (``benchmarks/training_speed.py`` measures it)."""
     parameters = [p for p in parameters if p.requires_grad]
     try:
         return torch.optim.Adam(parameters, lr=lr, weight_decay=weight_decay, fused=True)
