@@ -14,14 +14,15 @@ import torch
 from torch import nn
 
 from .. import progress
-from .config import PRECISIONS, History, NonFiniteLossError, TrainConfig, pick_device, seed_everything
 from . import parallel
+from .config import PRECISIONS, History, NonFiniteLossError, TrainConfig, pick_device, seed_everything
 from .parallel import distributed
 from .schedule import lr_factor
 from .state import RunState, _random_states, _set_random_states, restore_state, save_state
 
 
 def _datasets(data) -> tuple[torch.utils.data.Dataset, torch.utils.data.Dataset | None]:
+    """``(train, val)`` of what :func:`train` accepts as ``data`` (``val`` may be ``None``)."""
     if hasattr(data, "train"):
         return data.train, getattr(data, "val", None)
     if isinstance(data, (tuple, list)) and len(data) == 2:
@@ -30,6 +31,7 @@ def _datasets(data) -> tuple[torch.utils.data.Dataset, torch.utils.data.Dataset 
 
 
 def _mean_terms(model: nn.Module, dataset, batch_size: int, device: torch.device) -> dict[str, float]:
+    """The mean of each of the model's loss terms over ``dataset``, in eval mode, without gradients."""
     loader = torch.utils.data.DataLoader(dataset, batch_size=batch_size)
     totals: dict[str, float] = {}
     count = 0
@@ -189,6 +191,7 @@ def _resume(run: _Run) -> None:
 
 
 def _print_estimate(run: _Run, train_set) -> None:
+    """How long the steps left will take, timed on a copy of the model (:func:`seconds_per_step`)."""
     batch = next(iter(torch.utils.data.DataLoader(train_set, batch_size=run.config.batch_size // run.world)))
     seconds = seconds_per_step(run.model, batch.to(run.device), run.config)
     left = run.total - run.state.step
@@ -204,6 +207,7 @@ def _start_clock(run: _Run) -> None:
 
 
 def _stop_clock(run: _Run) -> None:
+    """Close the bar and add this run's time to the history's."""
     run.bar.close()
     run.seconds = time.perf_counter() - run.began
     run.history.seconds = run.seconds_before + run.seconds
@@ -308,6 +312,7 @@ def _save(run: _Run) -> None:
 
 
 def _print_summary(run: _Run, val_set) -> None:
+    """The run's :func:`summary_line` (rank 0, with progress on)."""
     history, last = run.history, run.last_finite
     if last is None and history.train:
         last = history.train[-1]["loss"]
