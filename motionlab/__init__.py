@@ -10,10 +10,11 @@ from __future__ import annotations
 
 __version__ = "0.1.0"
 
-__all__ = ["asfamc", "bvh", "checks", "claims", "clip", "cmu_locomotion", "colab", "comparison",
-           "contacts", "cpu", "data", "download", "engine", "experiments", "files", "filters",
-           "live", "metrics", "models", "pretrained", "progress", "recipes", "representation",
-           "rotations", "skeleton", "synthetic", "text", "train", "training", "viz", "widgets"]
+__all__ = ["asfamc", "bvh", "checkpoints", "checks", "claims", "clip", "cmu_locomotion", "colab",
+           "comparison", "contacts", "cpu", "data", "download", "engine", "experiments", "files",
+           "filters", "live", "metrics", "models", "pretrained", "progress", "recipes",
+           "representation", "rotations", "skeleton", "synthetic", "text", "train", "training",
+           "viz", "widgets"]
 """Every module and subpackage of the library (tests/test_package.py keeps it complete)."""
 
 
@@ -25,6 +26,8 @@ def __getattr__(name: str):
             import motionlab.asfamc as module
         case "bvh":
             import motionlab.bvh as module
+        case "checkpoints":
+            import motionlab.checkpoints as module
         case "checks":
             import motionlab.checks as module
         case "claims":

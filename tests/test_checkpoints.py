@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import torch
 
-from motionlab import data, training
+from motionlab import checkpoints, data, training
 from motionlab.models.conv_ae import ConvAEConfig, ConvAutoencoder
 from motionlab.models.glow import Glow, GlowConfig
 
@@ -238,5 +238,5 @@ def test_saving_leaves_no_partial_file_and_checking_draws_no_random_numbers(tmp_
     torch.manual_seed(7)
     expected = torch.rand(3)
     torch.manual_seed(7)
-    training._meta_model(path, ConvAutoencoder, SMALL, weights)       # builds on the meta device
+    checkpoints._meta_model(path, ConvAutoencoder, SMALL, weights)       # builds on the meta device
     assert torch.equal(torch.rand(3), expected)

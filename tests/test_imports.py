@@ -33,7 +33,8 @@ def _resolve(package: str, name: str) -> str | None:
 
 def imported_modules(module: str) -> set[str]:
     """The ``motionlab`` modules (of :data:`MODULES`) that ``motionlab.<module>`` imports."""
-    here = module.rpartition(".")[0]                     # "models", "engine" or ""
+    # the package the module is in: "models", "training" (its modules and itself) or ""
+    here = module if FILES[module].name == "__init__.py" else module.rpartition(".")[0]
     found = set()
     for node in ast.walk(ast.parse(FILES[module].read_text())):
         if isinstance(node, ast.ImportFrom) and node.level >= 1:
@@ -100,9 +101,23 @@ def test_clip_and_the_cmu_unit_live_in_one_place():
 
 
 def test_model_files_never_import_the_course_code():
+    course = {"training", "checkpoints", "pretrained", "experiments", "synthetic", "data"}
     for module in MODULES:
         if module.startswith("models."):
-            assert not GRAPH[module] & {"training", "pretrained", "experiments", "synthetic", "data"}, module
+            assert not {m.partition(".")[0] for m in GRAPH[module]} & course, module
+
+
+def test_the_training_package_and_checkpoints():
+    """The loop never needs checkpoints; checkpoints build on the loop (``train_or_load``) and
+    the package gives their names too, looked up on first use (importing them there would be
+    a cycle)."""
+    assert {"training.config", "training.loop"} <= GRAPH["checkpoints"]
+    assert not any("checkpoints" in GRAPH[m] for m in MODULES if m.startswith("training."))
+    assert {"training.config", "training.loop", "training.parallel", "training.state"} <= GRAPH["training"]
+    from motionlab import checkpoints, training
+    for name in ("Checkpoint", "CheckpointMismatch", "load_checkpoint", "save_checkpoint", "train_or_load",
+                 "register_model", "registered_models", "CHECKPOINT_FORMAT"):
+        assert getattr(training, name) is getattr(checkpoints, name) and name in dir(training)
 
 
 def test_rotations_depend_on_nothing_else_in_the_library():
@@ -118,7 +133,8 @@ LAYERS = {
     "models": {"models", "models.base", "models.flows", "models.conv_ae", "models.vae", "models.vae_lstm",
                "models.lstm", "models.glow", "models.moglow", "models.dfn", "engine", "engine.recurrent",
                "engine.stream"},
-    "training": {"training", "train", "pretrained", "recipes"},
+    "training": {"training", "training.config", "training.schedule", "training.parallel", "training.state",
+                 "training.loop", "checkpoints", "train", "pretrained", "recipes"},
     "course": {"experiments", "comparison", "viz", "live", "widgets"},
 }
 """The library from the bottom up: where each module stands. A new module goes in one."""
