@@ -41,32 +41,11 @@ test-laptop: setup
 html: setup
 	$(BIN)/jupyter nbconvert --to html --output-dir build/html notebooks/*.ipynb
 
-# The trained weights shipped in data/checkpoints (notebooks 03 to 07 load them).
-# Each is the command line's checkpoint, weights stored as float16; times in data/README.md.
-TRAIN  = $(BIN)/python -m motionlab.train
-MOGLOW = $(TRAIN) moglow --synthetic-clips 200 --epochs 60 --lr 3e-3 --batch-size 32 --half
-# Motegi's conv AE and VAE on its features (notebook 03's data and config).
-MOTEGI  = --synthetic-clips 100 --stride 1.0 --normalization shared_pose --half
-# Habibie's VAE-LSTM and its LSTM-3LR baselines: one budget for all four (notebook 04).
-HABIBIE = --synthetic-clips 120 --epochs 20 --lr 3e-3 --half
+# The trained weights shipped in data/checkpoints (notebooks 03 to 08 load them), each made
+# by its named recipe in motionlab/recipes.py (`python -m motionlab.recipes --list` prints
+# them); weights stored as float16, times in data/README.md.
 checkpoints: setup
-	$(TRAIN) conv_ae $(MOTEGI) --set depool=linear input_dropout=0.0 l1=0.0 --epochs 40 --lr 2e-3 \
-		--out data/checkpoints/conv_ae.pt
-	$(TRAIN) vae --conv-ae data/checkpoints/conv_ae.pt $(MOTEGI) --set latent=16 beta=32.0 --epochs 60 \
-		--lr 1e-3 --out data/checkpoints/vae.pt
-	$(TRAIN) vae_lstm $(HABIBIE) --set observation_std=3.0 contact_weight=1.0 --out data/checkpoints/vae_lstm.pt
-	$(TRAIN) vae_lstm $(HABIBIE) --set observation_std=3.0 free_running=0.0 --out data/checkpoints/vae_lstm_paper_objective.pt
-	$(TRAIN) lstm $(HABIBIE) --set hidden=64 control=predicted --out data/checkpoints/lstm_no_control.pt
-	$(TRAIN) lstm $(HABIBIE) --set hidden=64 control=given --out data/checkpoints/lstm_control.pt
-	$(MOGLOW) --out data/checkpoints/moglow_dropout.pt
-	$(MOGLOW) --set dropout=0.0 --out data/checkpoints/moglow_no_dropout.pt
-	$(MOGLOW) --set recurrent=false --out data/checkpoints/moglow_markov.pt
-	$(MOGLOW) --set recurrent=false hidden=205 --out data/checkpoints/moglow_markov_matched.pt
-	$(MOGLOW) --set foot_anchor=true --out data/checkpoints/moglow_foot_anchor.pt
-	$(TRAIN) glow --synthetic-clips 200 --stride 1.0 --epochs 20 --lr 2e-3 --batch-size 32 --half \
-		--out data/checkpoints/glow.pt
-	$(TRAIN) dfn --synthetic-clips 120 --stride 0.5 --stage-epochs frame=10 sequence=10 dynamics=20 \
-		--lr 3e-3 --batch-size 64 --half --out data/checkpoints/dfn.pt
+	$(BIN)/python -m motionlab.recipes --folder data/checkpoints
 
 clean:
 	rm -rf $(VENV) build *.egg-info

@@ -43,7 +43,7 @@ def models_for(prepared, config: MoGlowConfig, epochs: int, tag: str, retrain: b
               "Markov, wide": "markov_matched"}
     models = {}
     for label, variant in labels.items():
-        model, history = pretrained.train_or_load(prepared, variant, config, epochs, retrain=retrain,
+        model, history = pretrained.moglow_or_train(prepared, variant, config, epochs, retrain=retrain,
                                                   cache=ROOT / "data" / "cache" / f"moglow_{tag}_{variant}.pt")
         print(f"  {label:12} {len(history.train)} steps, {history.seconds:.0f} s of training")
         models[label] = model

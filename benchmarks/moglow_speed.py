@@ -11,7 +11,7 @@ units, τ = 10) it prints, in float32 and in bfloat16:
   coupling networks under autocast, the flow's transforms and likelihood in float32), the
   time its LSTMs take alone (forwards and backwards, nothing else: what the LSTM kernels
   themselves allow), both as MoGlow trains them on the CPU (the written-out LSTM of
-  :mod:`motionlab.models.recurrent`) and with ``nn.LSTM``'s oneDNN kernels, and the peak
+  :mod:`motionlab.engine.recurrent`) and with ``nn.LSTM``'s oneDNN kernels, and the peak
   memory of the process that ran the step;
 * frames per second of the streaming sampler (:class:`MoGlowStream`) with float32 and with
   bfloat16 weights, for one stream and for 64 streams at once (a crowd of characters);
@@ -62,7 +62,7 @@ import torch
 import torch.nn.functional as F
 
 from motionlab import data, training
-from motionlab.models import recurrent
+from motionlab.engine import recurrent
 from motionlab import cpu
 from motionlab.cpu import native_bfloat16, onednn_disabled
 from motionlab.models.moglow import LSTMCouplingNet, MoGlow, MoGlowConfig
@@ -194,8 +194,8 @@ def lstm_seconds(config: MoGlowConfig, precision: str = "fp32", repeats: int = 2
     backwards, with the gradient of the half-pose they read but not of the conditioning, of
     the ``config.steps`` coupling LSTMs over the step's 100 windows of 70 frames, and
     nothing else of the model. ``written_out``: as MoGlow trains them on the CPU (through
-    :func:`motionlab.models.recurrent.from_zero_state`); ``False``: ``nn.LSTM``'s own
-    kernels (:func:`motionlab.models.recurrent.run`: PyTorch's own LSTM cells where oneDNN has
+    :func:`motionlab.engine.recurrent.from_zero_state`); ``False``: ``nn.LSTM``'s own
+    kernels (:func:`motionlab.engine.recurrent.run`: PyTorch's own LSTM cells where oneDNN has
     no LSTM in ``precision``, see :func:`motionlab.cpu.onednn_lstm`)."""
     torch.manual_seed(0)
     model = MoGlow(config)

@@ -26,7 +26,7 @@ from pathlib import Path
 import torch
 
 import motionlab
-from motionlab.models import MODELS, classes
+from motionlab import models as registry
 from motionlab.models.dfn import STAGES
 
 CLIP = 1.0
@@ -59,10 +59,9 @@ def steps_per_second(model, x: torch.Tensor, precision: torch.dtype | None, step
 
 def models(batch_size: int):
     """``(label, model, batch)`` for every trainable model (VAE: on 1280 conv features)."""
-    for name in MODELS:
-        model_class, config_class = classes(name)
+    for name, card in registry.cards().items():
         torch.manual_seed(0)
-        model = model_class(config_class())
+        model = card.model(card.config())
         if name == "vae":
             yield name, model, torch.randn(batch_size, model.config.n_inputs)
         elif name == "dfn":

@@ -10,8 +10,12 @@ from __future__ import annotations
 
 __version__ = "0.1.0"
 
-__all__ = ["asfamc", "bvh", "checks", "claims", "clip", "cmu_locomotion", "colab", "data", "download", "experiments", "filters", "metrics", "models",
-           "pretrained", "representation", "rotations", "skeleton", "synthetic", "training", "viz", "widgets"]
+__all__ = ["asfamc", "bvh", "checkpoints", "checks", "claims", "clip", "cmu_locomotion", "colab",
+           "comparison", "contacts", "cpu", "data", "download", "engine", "experiments", "files",
+           "filters", "live", "metrics", "models", "pretrained", "progress", "recipes",
+           "representation", "rotations", "skeleton", "synthetic", "text", "train", "training",
+           "viz", "widgets"]
+"""Every module and subpackage of the library (tests/test_package.py keeps it complete)."""
 
 
 def __getattr__(name: str):
@@ -22,6 +26,8 @@ def __getattr__(name: str):
             import motionlab.asfamc as module
         case "bvh":
             import motionlab.bvh as module
+        case "checkpoints":
+            import motionlab.checkpoints as module
         case "checks":
             import motionlab.checks as module
         case "claims":
@@ -32,20 +38,36 @@ def __getattr__(name: str):
             import motionlab.cmu_locomotion as module
         case "colab":
             import motionlab.colab as module
+        case "comparison":
+            import motionlab.comparison as module
+        case "contacts":
+            import motionlab.contacts as module
+        case "cpu":
+            import motionlab.cpu as module
         case "data":
             import motionlab.data as module
         case "download":
             import motionlab.download as module
+        case "engine":
+            import motionlab.engine as module
         case "experiments":
             import motionlab.experiments as module
+        case "files":
+            import motionlab.files as module
         case "filters":
             import motionlab.filters as module
+        case "live":
+            import motionlab.live as module
         case "metrics":
             import motionlab.metrics as module
         case "models":
             import motionlab.models as module
         case "pretrained":
             import motionlab.pretrained as module
+        case "progress":
+            import motionlab.progress as module
+        case "recipes":
+            import motionlab.recipes as module
         case "representation":
             import motionlab.representation as module
         case "rotations":
@@ -54,6 +76,10 @@ def __getattr__(name: str):
             import motionlab.skeleton as module
         case "synthetic":
             import motionlab.synthetic as module
+        case "text":
+            import motionlab.text as module
+        case "train":
+            import motionlab.train as module
         case "training":
             import motionlab.training as module
         case "viz":

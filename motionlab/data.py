@@ -22,6 +22,7 @@ import numpy as np
 import torch
 
 from . import asfamc, checks
+from . import files as files_
 from . import bvh as bvh_io
 from .clip import CMU_UNIT_M, Clip
 from .representation import FACING_SMOOTHING_S, POSE, mirror_features, reverse_features, to_positions
@@ -103,7 +104,7 @@ def load(source: str | Path | Iterable[str | Path] = "synthetic", fps: float = 2
       :mod:`motionlab.synthetic` (seeded by ``seed``): the built-in data every notebook
       uses when no motion capture is given.
     * A folder is read for CMU-style ``.bvh`` files and CMU ``.amc`` files (each next to
-      its subject's ``.asf``, as :func:`download_cmu` leaves them); one trial must not be
+      its subject's ``.asf``, as :func:`motionlab.download.download_cmu` leaves them); one trial must not be
       there in both formats.
 
     Files come back sorted by name, resampled to ``fps``; file extensions may be in any
@@ -184,9 +185,8 @@ def _file_key(path: Path) -> str:
     """What identifies a file's loaded clip: the loader version, and the size and SHA-256
     of the file (and of its subject's ``.asf`` for an ``.amc``). Hashing reads a file far
     faster than parsing it."""
-    from .download import sha256_of
     parts = [path] + ([asfamc.skeleton_path(path)] if path.suffix.lower() == ".amc" else [])
-    stamps = [f"{Path(part).name}:{Path(part).stat().st_size}:{sha256_of(part)}" if Path(part).is_file()
+    stamps = [f"{Path(part).name}:{Path(part).stat().st_size}:{files_.sha256_of(part)}" if Path(part).is_file()
               else f"{Path(part).name}:missing" for part in parts]
     return f"v{LOADER_VERSION}|" + "|".join(stamps)
 
@@ -227,12 +227,11 @@ def _load_cached(files: list[Path], fps: float, folder: Path) -> list[Clip]:
             changed = True
     if changed or len(cached) != len(files):
         folder.mkdir(parents=True, exist_ok=True)
-        partial = path.with_name(path.name + ".partial.npz")
-        np.savez(partial, names=np.array([str(f.resolve()) for f in files]),
-                 keys=np.array(keys),
-                 lengths=np.array([c.n_frames for c in clips]),
-                 positions=np.concatenate([c.positions for c in clips]).astype(np.float64))
-        partial.replace(path)
+        with files_.replacing(path, suffix=".npz") as partial:
+            np.savez(partial, names=np.array([str(f.resolve()) for f in files]),
+                     keys=np.array(keys),
+                     lengths=np.array([c.n_frames for c in clips]),
+                     positions=np.concatenate([c.positions for c in clips]).astype(np.float64))
     return clips
 
 
@@ -242,15 +241,6 @@ def _load_file(path: Path, fps: float) -> Clip:
     if path.suffix.lower() == ".bvh":
         return load_bvh(path, fps=fps)
     raise ValueError(f"{path}: unknown motion file type (expected .bvh or .amc)")
-
-
-def download_cmu(trials=None, dest: str | Path = "data/cache/cmu", **options) -> list[Path]:
-    """Fetch CMU trials (ASF/AMC) from CMU's site into ``dest``; see :func:`motionlab.download.download_cmu`.
-
-    ``data.load(dest)`` then loads them. With no ``trials``, a curated set of locomotion.
-    """
-    from .download import download_cmu as fetch
-    return fetch(trials, dest, **options)
 
 
 def split_clips(clips: Sequence[Clip], fractions: tuple[float, float, float] = (0.8, 0.1, 0.1),

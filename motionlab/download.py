@@ -50,7 +50,6 @@ to be resold as a data set.
 from __future__ import annotations
 
 import argparse
-import hashlib
 import json
 import numbers
 import os
@@ -67,7 +66,8 @@ from urllib.parse import urlsplit
 
 from tqdm.auto import tqdm
 
-from . import asfamc
+from . import asfamc, files
+from .files import sha256_of
 
 DEFAULT_BASE = "http://mocap.cs.cmu.edu"
 DEFAULT_DEST = "data/cache/cmu"
@@ -257,15 +257,6 @@ def _check_frames_complete(path: Path, asf: asfamc.ASF) -> None:
 
 # --------------------------------------------------------------------------- the manifest
 
-def sha256_of(path: str | Path) -> str:
-    """The SHA-256 of a file, as hex."""
-    digest = hashlib.sha256()
-    with open(path, "rb") as f:
-        while block := f.read(1 << 20):
-            digest.update(block)
-    return digest.hexdigest()
-
-
 def read_manifest(folder: str | Path) -> dict[str, dict]:
     """``<folder>/manifest.json``: file name -> ``{"url", "size", "sha256", "recorded",
     "origin"}``; empty if there is none (or it is unreadable: then every file gets parsed)."""
@@ -292,9 +283,8 @@ def _record(path: Path, url: str, origin: str) -> None:
 
 def _write_json(path: Path, value: dict) -> None:
     """Write ``value`` to ``path`` at once (through a temporary file), never half."""
-    temporary = path.with_name(path.name + ".tmp")
-    temporary.write_text(json.dumps(value, indent=1, sort_keys=True) + "\n", encoding="utf-8")
-    os.replace(temporary, path)
+    with files.replacing(path) as partial:
+        partial.write_text(json.dumps(value, indent=1, sort_keys=True) + "\n", encoding="utf-8")
 
 
 def _problem_with(target: Path, url: str, kind: str,
@@ -588,7 +578,7 @@ def main(argv: list[str] | None = None) -> int:
                         f"the {len(DEFAULT_TRIALS)} locomotion trials of the course)")
     parser.add_argument("--set", dest="trial_set", choices=sorted(trial_sets()), default=None,
                         help="a named list instead: 'course' (the default 55) or 'locomotion-full' "
-                             "(685 locomotion trials of CMU's index, see motionlab/cmu_locomotion.py)")
+                             "(685 locomotion trials of CMU's index, listed in motionlab/cmu_locomotion.tsv)")
     parser.add_argument("--dest", default=DEFAULT_DEST,
                         help=f"folder for the files (default: {DEFAULT_DEST})")
     parser.add_argument("--base-url", default=DEFAULT_BASE,

@@ -9,7 +9,7 @@ config, its weights, the normaliser of its training data and how that data was m
     model = pretrained.load("moglow")            # ready: eval mode, normaliser attached
     motion = model.generate(control, prefix=start, n=4, seed=0)
 
-:func:`train_or_load` is what the notebooks call: the shipped checkpoint when it fits the
+:func:`shipped_or_train` and :func:`moglow_or_train` are what the notebooks call: the shipped checkpoint when it fits the
 notebook's config and data, else a model trained now (and cached in ``data/cache``).
 
 Loading never runs code from a file: only motionlab's registered model classes are built
@@ -24,6 +24,7 @@ import torch
 
 from . import training
 from .models.moglow import MoGlow, MoGlowConfig
+from .recipes import RECIPES
 
 CHECKPOINTS = Path(__file__).resolve().parents[1] / "data" / "checkpoints"
 """The repository's ``data/checkpoints``."""
@@ -31,30 +32,19 @@ CHECKPOINTS = Path(__file__).resolve().parents[1] / "data" / "checkpoints"
 CACHE = CHECKPOINTS.parent / "cache"
 """Where notebooks cache the models they train (ignored by git)."""
 
-MOGLOW_VARIANTS = {"dropout": {}, "no_dropout": {"dropout": 0.0}, "markov": {"recurrent": False},
-                   "markov_matched": {"recurrent": False, "hidden": 205}, "foot_anchor": {"foot_anchor": True}}
-"""The MoGlow models notebook 06 compares, as changes to a base config. ``markov_matched``
-is the Markov model widened to as many weights as the laptop LSTM model (803 k), for a
-fair comparison of the two at the laptop size. ``foot_anchor`` models each foot relative to
+MOGLOW_VARIANTS = {"dropout": "moglow", "no_dropout": "moglow_no_dropout", "markov": "moglow_markov",
+                   "markov_matched": "moglow_markov_matched", "foot_anchor": "moglow_foot_anchor"}
+"""The MoGlow models notebook 06 compares: variant -> the recipe (:mod:`motionlab.recipes`) that
+says how it differs from the base config and how it is trained. ``markov_matched`` is the
+Markov model widened to as many weights as the laptop LSTM model (803 k), for a fair
+comparison of the two at the laptop size. ``foot_anchor`` models each foot relative to
 where it would be had it stayed planted (``MoGlowConfig.foot_anchor``; notebook 08)."""
 
-NAMES = {"conv_ae": "conv_ae.pt", "vae": "vae.pt", "vae_lstm": "vae_lstm.pt",
-         "vae_lstm_paper_objective": "vae_lstm_paper_objective.pt",
-         "lstm_no_control": "lstm_no_control.pt", "lstm_control": "lstm_control.pt",
-         "moglow": "moglow_dropout.pt", "moglow_no_dropout": "moglow_no_dropout.pt",
-         "moglow_markov": "moglow_markov.pt", "moglow_markov_matched": "moglow_markov_matched.pt",
-         "moglow_foot_anchor": "moglow_foot_anchor.pt",
-         "glow": "glow.pt", "dfn": "dfn.pt"}
-"""Model name -> file in :data:`CHECKPOINTS`. ``"conv_ae"`` is Motegi's temporal conv
+NAMES = {name: recipe.file for name, recipe in RECIPES.items()}
+"""Model name -> file in :data:`CHECKPOINTS`, from the recipes (:data:`motionlab.recipes.RECIPES`
+says what each model is and how it was trained). ``"conv_ae"`` is Motegi's temporal conv
 autoencoder and ``"vae"`` his VAE on its features (loaded as one
-:class:`~motionlab.models.vae.MotionVAE`); ``"vae_lstm"`` is Habibie's model (with our free-running term),
-``"vae_lstm_paper_objective"`` the same trained with eq. 5 alone, and ``"lstm_no_control"``
-/ ``"lstm_control"`` the LSTM-3LR baselines of notebook 04, all with one budget. ``"moglow"``
-is MoGlow as the paper trains it (with history dropout, §5.3); ``"moglow_foot_anchor"`` the
-same with its feet anchored where they were planted; the others are the variants of notebook
-06. ``"glow"`` is Glow for 4-s windows given their control (notebook
-05), trained longer and on more clips than the notebook's live run. ``"dfn"`` is Dynamic
-Future Net (notebook 07), its three stages trained one after another."""
+:class:`~motionlab.models.vae.MotionVAE`)."""
 
 
 def available() -> list[str]:
@@ -97,25 +87,25 @@ def shipped_or_train(name: str, model: torch.nn.Module, prepared, config: traini
                                   pretrained=path(name))
 
 
-def train_or_load(prepared, variant: str = "dropout", config: MoGlowConfig = MoGlowConfig(), epochs: int = 60,
-                  retrain: bool = False, cache: str | Path | None = None):
+def moglow_or_train(prepared, variant: str = "dropout", config: MoGlowConfig = MoGlowConfig(), epochs: int | None = None,
+                    retrain: bool = False, cache: str | Path | None = None):
     """A trained MoGlow ``variant`` (a key of :data:`MOGLOW_VARIANTS`) of ``config`` for the
     data ``prepared`` (:func:`motionlab.data.prepare`), and its history.
 
     Uses the shipped checkpoint when it holds this config trained on data made the same
-    way; otherwise trains for ``epochs`` (Adam 3e-3, batches of 32, as ``make checkpoints``
-    does) and caches the result in ``cache`` (default ``data/cache/moglow_<variant>.pt``).
-    ``retrain=True`` always trains.
+    way; otherwise trains as the variant's recipe does (:mod:`motionlab.recipes`: Adam 3e-3,
+    batches of 32, 60 epochs unless ``epochs`` is given) and caches the result in ``cache``
+    (default ``data/cache/moglow_<variant>.pt``). ``retrain=True`` always trains.
     """
     if variant not in MOGLOW_VARIANTS:
         raise ValueError(f"variant: expected one of {', '.join(MOGLOW_VARIANTS)}, got {variant!r}")
+    recipe = RECIPES[MOGLOW_VARIANTS[variant]]
     torch.manual_seed(0)
-    model = MoGlow(replace(config, **MOGLOW_VARIANTS[variant]))
+    model = MoGlow(replace(config, **recipe.changes()))
     cache = Path(cache) if cache is not None else CACHE / f"moglow_{variant}.pt"
-    shipped = path("moglow" if variant == "dropout" else f"moglow_{variant}")
-    return training.train_or_load(cache, model, prepared,
-                                  training.TrainConfig(epochs=epochs, batch_size=32, lr=3e-3, progress=False),
-                                  retrain=retrain, pretrained=shipped)
+    how = recipe.train_config(len(prepared.train), progress=False,
+                              **({} if epochs is None else {"epochs": epochs}))
+    return training.train_or_load(cache, model, prepared, how, retrain=retrain, pretrained=path(recipe.name))
 
 
 def load_motion_vae(path: str | Path):

@@ -9,7 +9,8 @@
 
 The model's config decides the frame rate and window length of the data; ``--set
 name=value`` changes any config field. ``--paper`` takes the paper's architecture
-(``Config.paper()``) and training schedule (:data:`PAPER_SCHEDULES`); options given on
+(``Config.paper()``) and training schedule (the model card's ``schedule``, at the end of
+the model's file); options given on
 the command line win over both. A GPU is used when there is one (``--device``).
 The checkpoint holds the weights, config, normaliser and data description, and loads
 with ``motionlab.training.load_checkpoint``.
@@ -21,112 +22,16 @@ import dataclasses
 import math
 import sys
 from pathlib import Path
-from typing import Any, NamedTuple
 
 import torch
 
 from . import checks, data, training
-from .models import MODELS, classes
+from . import models
 
-DFN_STAGES = ("frame", "sequence", "dynamics")          # motionlab.models.dfn.STAGES (§5.6)
-
-# ----------------------------------------------------------------------------------------
-# What each paper publishes about training, and what we choose where it is silent
-# ----------------------------------------------------------------------------------------
-
-
-class Setting(NamedTuple):
-    """One training setting: its value and where it comes from."""
-
-    value: Any
-    source: str          # the paper's section, or why we chose it
-    from_paper: bool
-
-
-def paper(value, where: str) -> Setting:
-    return Setting(value, where, True)
-
-
-def choice(value, why: str) -> Setting:
-    return Setting(value, why, False)
-
-
-NO_CLIP = "motionlab's default gradient-norm clipping (no paper mentions clipping)"
-MOGLOW_CODE = ("not in the paper: the authors' released config, github.com/simonalexanderson/"
-               "StyleGestures hparams/paper_version/locomotion.json")
-
-
-def _motegi(section: str) -> dict[str, Setting]:
-    """Motegi et al. 2018 trains the conv AE (§III-B) and the VAE (§IV-B) alike."""
-    return {
-        "optimizer": paper("Adam", f"Motegi 2018 §{section}: 'Adam optimization algorithm'"),
-        "batch_size": paper(100, f"§{section}: 'the batch size is 100'"),
-        "epochs": paper(200, f"§{section}: 'performed for 200 epochs'"),
-        "lr": choice(1e-3, "Motegi gives no learning rate: Adam's default (Kingma & Ba 2015)"),
-        "schedule": choice("constant", "no decay is mentioned"),
-        "grad_clip": choice(1.0, NO_CLIP),
-    }
-
-
-def _henter(steps: int, which: str) -> dict[str, Setting]:
-    """Henter et al. 2020 §5.2 gives the optimiser and the number of steps only."""
-    return {
-        "optimizer": paper("Adam", "Henter 2020 §5.2: 'using Adam'"),
-        "max_steps": paper(steps, f"§5.2: the {which} model, '{steps // 1000}k steps'"),
-        "batch_size": choice(100, MOGLOW_CODE),
-        "lr": choice(1e-4, MOGLOW_CODE),
-        "warmup_steps": choice(1000, MOGLOW_CODE + " (its Noam decay has a floor at the peak "
-                                     "learning rate: constant after the warm-up)"),
-        "schedule": choice("constant", MOGLOW_CODE),
-        "grad_clip": choice(1.0, NO_CLIP + "; the authors' code clips the norm at 100"),
-    }
-
-
-HABIBIE = "Habibie 2017 §4.2"
-HABIBIE_BASELINE = ("Habibie 2017 gives no training details for its LSTM-3LR baseline (§4.3, "
-                    "Tables 1-2): its VAE-LSTM value, §4.2")
-
-PAPER_SCHEDULES: dict[str, dict[str, Setting]] = {
-    "conv_ae": _motegi("III-B"),
-    "vae": _motegi("IV-B"),
-    "vae_lstm": {
-        "optimizer": paper("Adam", f"{HABIBIE}: 'using the Adam optimizer'"),
-        "lr": paper(5e-4, f"{HABIBIE}: 'a learning rate of 5x10^-4'"),
-        "epochs": paper(5000, f"{HABIBIE}: 'for 5000 epochs'"),
-        "batch_size": choice(32, "§4.2 gives no batch size: motionlab's default"),
-        "schedule": choice("constant", "§4.2 names one learning rate and no decay"),
-        "grad_clip": choice(1.0, NO_CLIP),
-    },
-    "lstm": {
-        "optimizer": choice("Adam", HABIBIE_BASELINE),
-        "lr": choice(5e-4, HABIBIE_BASELINE),
-        "epochs": choice(5000, HABIBIE_BASELINE),
-        "batch_size": choice(32, "not in the paper: motionlab's default"),
-        "schedule": choice("constant", "not in the paper: one learning rate, as for VAE-LSTM"),
-        "grad_clip": choice(1.0, NO_CLIP),
-    },
-    "glow": _henter(20_000, "fixed-length"),
-    "moglow": _henter(80_000, "autoregressive"),
-    "dfn": {
-        "stages": paper("frame, then sequence, then dynamics with both frozen",
-                        "Chen 2020 §5.1 and §5.6"),
-        "optimizer": choice("Adam", "Chen 2020 names no optimiser, learning rate, batch size or epochs"),
-        "stage_epochs": choice({"frame": 100, "sequence": 100, "dynamics": 200},
-                               "not in the paper: notebook 07's PAPER setting"),
-        "lr": choice(3e-3, "not in the paper: notebook 07's"),
-        "batch_size": choice(64, "not in the paper: notebook 07's"),
-        "schedule": choice("cosine", "not in the paper: notebook 07's, motionlab's default"),
-        "grad_clip": choice(1.0, NO_CLIP),
-    },
-}
-"""Per model, what its paper says about training (``paper``, with the section) and what we
-chose where it says nothing (``choice``, with the reason). Keys are :class:`Plan` fields,
-plus ``optimizer`` and ``stages``, which only document (motionlab always trains with Adam,
-and DFN always in the paper's stage order)."""
-
-DEFAULTS = {"epochs": 30, "batch_size": 32, "lr": 1e-3, "schedule": "cosine", "warmup_steps": 0,
-            "grad_clip": 1.0, "max_steps": None}
-"""Without ``--paper``: a laptop run."""
+DEFAULTS = {"epochs": 30, **{name: getattr(training.TrainConfig(), name)
+                             for name in ("batch_size", "lr", "schedule", "warmup_steps", "grad_clip", "max_steps")}}
+"""Without ``--paper``: :class:`motionlab.training.TrainConfig`'s defaults (the one place they are
+written), except 30 epochs instead of 20: a command-line run is a longer one than a notebook's."""
 
 FLAGS = {"epochs": "--epochs", "batch_size": "--batch-size", "lr": "--lr", "schedule": "--schedule",
          "warmup_steps": "--warmup-steps", "max_steps": "--max-steps", "stage_epochs": "--stage-epochs"}
@@ -183,11 +88,10 @@ def _out(text: str) -> str:
 
 
 def _stage_epochs(text: str) -> tuple[str, int]:
-    """``STAGE=EPOCHS``, e.g. ``frame=15``, with STAGE one of DFN's stages."""
+    """``STAGE=EPOCHS``, e.g. ``frame=15`` (the model's stages are checked once it is known)."""
     stage, sep, number = text.partition("=")
-    if not sep or stage not in DFN_STAGES:
-        raise argparse.ArgumentTypeError(f"expected STAGE=EPOCHS with STAGE one of {', '.join(DFN_STAGES)}, "
-                                         f"got {text!r}")
+    if not sep or not stage:
+        raise argparse.ArgumentTypeError(f"expected STAGE=EPOCHS, got {text!r}")
     return stage, _whole(1)(number)
 
 
@@ -208,7 +112,7 @@ def _conv_ae(text: str) -> tuple[str, training.Checkpoint]:
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="python -m motionlab.train", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("model", choices=sorted(MODELS), help="which model to train")
+    parser.add_argument("model", choices=models.FILES, help="which model to train")
     parser.add_argument("--data", default="synthetic", type=_source,
                         help="'synthetic' or a folder of CMU .bvh files")
     parser.add_argument("--paper", action="store_true",
@@ -262,13 +166,19 @@ def check_model_options(parser: argparse.ArgumentParser, args: argparse.Namespac
     if args.model == "vae" and args.conv_ae is None:
         parser.error("--conv-ae: vae models a conv AE's features; give its checkpoint "
                      "(python -m motionlab.train conv_ae --out conv_ae.pt, then --conv-ae conv_ae.pt)")
-    for option, name, model in [("--conv-ae", "conv_ae", "vae"), ("--stage-epochs", "stage_epochs", "dfn"),
-                                ("--window-s", "window_s", "dfn")]:
+    for option, name, model in [("--conv-ae", "conv_ae", "vae"), ("--window-s", "window_s", "dfn")]:
         if getattr(args, name) is not None and args.model != model:
             parser.error(f"{option}: only for {model}" + (" (other models: --set window=FRAMES)"
                                                          if name == "window_s" else ""))
     if args.stage_epochs:
         stages = [stage for stage, _ in args.stage_epochs]
+        known = models.card(args.model).stages
+        if not known:
+            parser.error(f"--stage-epochs: only for a model trained in stages "
+                         f"({', '.join(c.name for c in models.cards().values() if c.stages)})")
+        unknown = [stage for stage in stages if stage not in known]
+        if unknown:
+            parser.error(f"--stage-epochs: {args.model}'s stages are {', '.join(known)}, not {', '.join(unknown)}")
         twice = sorted({s for s in stages if stages.count(s) > 1})
         if twice:
             parser.error(f"--stage-epochs: {', '.join(twice)} given twice")
@@ -302,7 +212,7 @@ def parse_overrides(config_class, items: list[str]) -> dict:
 
 def build_config(parser: argparse.ArgumentParser, args: argparse.Namespace):
     """The model's config: laptop or paper sizes, with ``--set`` changes (a usage error if bad)."""
-    config_class = classes(args.model)[1]
+    config_class = models.card(args.model).config
     try:
         changes = parse_overrides(config_class, args.set)          # its messages name --set
         if args.model == "vae":                                    # the conv AE decides the input size
@@ -406,7 +316,8 @@ def training_plan(args: argparse.Namespace) -> Plan:
     given = {name: getattr(args, name) for name in FLAGS if getattr(args, name) is not None}
     given_stages = dict(given.pop("stage_epochs", []))
     values, from_paper, choices = {}, [], []
-    for name, setting in (PAPER_SCHEDULES[args.model].items() if args.paper else ()):
+    card = models.card(args.model)
+    for name, setting in (card.schedule.items() if args.paper else ()):
         winner = "epochs" if name == "stage_epochs" else name          # the option that beats it
         if winner in given:
             note = f"  [not used: {FLAGS[winner]} given]"
@@ -423,7 +334,7 @@ def training_plan(args: argparse.Namespace) -> Plan:
         values.setdefault(name, default)
     paper_stages = values.pop("stage_epochs", {})
     stage_epochs = ({stage: given_stages.get(stage, paper_stages.get(stage, values["epochs"]))
-                     for stage in DFN_STAGES} if args.model == "dfn" else {})
+                     for stage in card.stages})
     shown_given = [f"{FLAGS[name]} {_show(value)}" for name, value in given.items()]
     if given_stages:
         shown_given.append(f"--stage-epochs {_show(given_stages)}")
@@ -437,16 +348,11 @@ def training_plan(args: argparse.Namespace) -> Plan:
 # Training, one function per kind of model
 # ----------------------------------------------------------------------------------------
 
-AUGMENT = {"dfn": ("mirror",)}
-"""Augmentation per model where it differs from MoGlow's mirror + reverse (§5.1): DFN has no
-control, so time-reversed clips would teach it to walk backwards on its own (notebook 07)."""
-
-
 def _prepare(args: argparse.Namespace, fps: float, window_s: float) -> data.MotionData:
     clips = data.load(args.data, fps=fps, n_clips=args.synthetic_clips, seed=args.seed)
     prepared = data.prepare(clips, window_s=window_s, stride_s=args.stride, seed=args.seed,
                             normalization=args.normalization,
-                            augment_with=AUGMENT.get(args.model, ("mirror", "reverse")))
+                            augment_with=models.card(args.model).augment)
     say(prepared.summary())
     return prepared
 
@@ -471,7 +377,7 @@ def _state(args: argparse.Namespace) -> dict:
 
 
 def _model(args: argparse.Namespace, config) -> torch.nn.Module:
-    model_class = classes(args.model)[0]
+    model_class = models.card(args.model).model
     say(f"model: {model_class.__name__}({config})")
     training.seed_everything(args.seed)          # the same command line starts from the same weights
     return model_class(config)
@@ -532,7 +438,7 @@ def train_dfn(args, config, plan: Plan) -> tuple[torch.nn.Module, training.Histo
     model, one after another (Chen §5.6; :func:`motionlab.training.train_stages`)."""
     prepared = _prepare(args, config.fps, args.window_s)
     model = _model(args, config)
-    configs = {stage: plan.train_config(len(prepared.train), stage) for stage in DFN_STAGES}
+    configs = {stage: plan.train_config(len(prepared.train), stage) for stage in models.card("dfn").stages}
     histories = training.train_stages(model, prepared, configs, **_state(args))
     for stage, history in histories.items():
         say(f"stage {stage}: {len(history.train)} steps, final loss {history.series('loss')[1][-1]:.4f}")

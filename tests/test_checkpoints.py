@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import torch
 
-from motionlab import data, training
+from motionlab import checkpoints, data, training
 from motionlab.models.conv_ae import ConvAEConfig, ConvAutoencoder
 from motionlab.models.glow import Glow, GlowConfig
 
@@ -145,7 +145,7 @@ def test_non_finite_weights_are_refused(tmp_path, prepared, value):
         training.load_checkpoint(write(tmp_path, state))
 
 
-def test_a_normaliser_that_does_not_fit_the_model_is_refused(tmp_path, prepared):
+def test_a_normalizer_that_does_not_fit_the_model_is_refused(tmp_path, prepared):
     state = saved_state(prepared)
     state["normalizer"] = {"mean": [0.0] * 65, "std": [1.0] * 65}
     with pytest.raises(ValueError, match="crafted.pt: normaliser has 65 features, the model reads 66"):
@@ -238,5 +238,5 @@ def test_saving_leaves_no_partial_file_and_checking_draws_no_random_numbers(tmp_
     torch.manual_seed(7)
     expected = torch.rand(3)
     torch.manual_seed(7)
-    training._meta_model(path, ConvAutoencoder, SMALL, weights)       # builds on the meta device
+    checkpoints._meta_model(path, ConvAutoencoder, SMALL, weights)       # builds on the meta device
     assert torch.equal(torch.rand(3), expected)

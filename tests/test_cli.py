@@ -1,11 +1,13 @@
 """The command line trains every model (one step, tiny sizes) and --paper applies the paper's schedule."""
-import importlib
+import sys
+import textwrap
 
 import pytest
 
 from motionlab import train as cli
 from motionlab import pretrained, training
-from motionlab.models import MODELS
+from motionlab import models
+from motionlab.models.modelcard import ModelCard
 
 TINY = {   # --set values that make each model small enough for one step in a second or two
     "conv_ae": ["window=8", "filters=4", "width=3"],
@@ -35,17 +37,22 @@ def conv_ae_checkpoint(tmp_path_factory):
 
 
 def model_class(name: str) -> type:
-    module, model, _ = MODELS[name]
-    return getattr(importlib.import_module(module), model)
+    return models.card(name).model
 
 
-def test_the_registry_names_all_seven_models():
-    assert set(MODELS) == {"conv_ae", "vae", "vae_lstm", "lstm", "glow", "moglow", "dfn"}
-    assert set(cli.PAPER_SCHEDULES) == set(MODELS)
-    assert cli.DFN_STAGES == model_class("dfn").stages
+def test_the_registry_names_all_seven_models_each_in_its_own_file():
+    assert models.FILES == ("conv_ae", "vae", "vae_lstm", "lstm", "glow", "moglow", "dfn")
+    for name, card in models.cards().items():
+        assert card.name == name and card.model.__module__ == f"motionlab.models.{name}"
+        assert card.config.__module__ == card.model.__module__
+    from motionlab.models.dfn import STAGES
+    assert models.card("dfn").stages == STAGES and models.card("dfn").augment == ("mirror",)
+    assert {name for name, card in models.cards().items() if card.stages} == {"dfn"}
+    assert training.registered_models()["motionlab.models.moglow.MoGlow"] == (models.card("moglow").model,
+                                                                               models.card("moglow").config)
 
 
-@pytest.mark.parametrize("name", sorted(MODELS))
+@pytest.mark.parametrize("name", models.FILES)
 def test_every_model_trains_one_step_and_its_checkpoint_loads(name, tmp_path, conv_ae_checkpoint):
     out = tmp_path / f"{name}.pt"
     extra = ["--conv-ae", str(conv_ae_checkpoint)] if name == "vae" else []
@@ -79,9 +86,9 @@ PAPER = {   # what reaches TrainConfig with --paper (per DFN stage: epochs)
 }
 
 
-@pytest.mark.parametrize("name", sorted(MODELS))
+@pytest.mark.parametrize("name", models.FILES)
 def test_paper_schedule_reaches_train_config_and_says_where_each_value_comes_from(name):
-    table = cli.PAPER_SCHEDULES[name]
+    table = models.card(name).schedule
     assert {k: s.value for k, s in table.items() if s.from_paper} == PAPER[name]
     assert all(s.source for s in table.values()) and table["optimizer"].value == "Adam"
     p = plan(name, "--paper")
@@ -168,10 +175,82 @@ def test_bad_model_options_are_usage_errors_naming_the_option(argv, option, tmp_
     assert not (tmp_path / "never.pt").exists()
 
 
-def test_the_registry_classes_are_imported_explicitly():
-    from motionlab.models import classes
-    for name, (module, model, config) in MODELS.items():
-        model_cls, config_cls = classes(name)
-        assert (model_cls.__module__, model_cls.__name__, config_cls.__name__) == (module, model, config)
+def test_the_registry_imports_only_the_files_it_lists():
     with pytest.raises(ValueError, match="name: expected one of"):
-        classes("os")
+        models.card("os")
+    with pytest.raises(ValueError, match="name: expected one of"):
+        models.card("..training")
+
+
+BAD_CARDS = {
+    "name": (dict(name="Glow 2"), "name"),
+    "model": (dict(model=dict), "model"),
+    "config": (dict(config=int), "config"),
+    "schedule key": (dict(schedule={"learning_rate": None}), "schedule"),
+    "augment": (dict(augment=("flip",)), "augment"),
+    "stages": (dict(stages=("a", "a")), "stages"),
+    "stage epochs without stages": (dict(schedule={"stage_epochs": models.card("dfn").schedule["stage_epochs"]}),
+                                    "stage_epochs"),
+}
+
+
+@pytest.mark.parametrize("change, field", BAD_CARDS.values(), ids=BAD_CARDS.keys())
+def test_a_bad_card_is_refused_naming_the_field(change, field):
+    glow = models.card("glow")
+    fields = dict(name=glow.name, model=glow.model, config=glow.config, schedule=glow.schedule)
+    with pytest.raises(ValueError, match=field):
+        ModelCard(**{**fields, **change})
+
+
+TINY_MODEL = """
+    from dataclasses import dataclass
+
+    import torch
+    from torch import nn
+
+    from motionlab.models.modelcard import ModelCard, choice
+
+
+    @dataclass(frozen=True)
+    class MeanPoseConfig:
+        n_features: int = 66
+        window: int = 8
+        fps: float = 20.0
+
+        @classmethod
+        def paper(cls, **changes):
+            return cls(**changes)
+
+
+    class MeanPose(nn.Module):
+        # the simplest model there is: one learnt pose
+
+        def __init__(self, config: MeanPoseConfig = MeanPoseConfig()):
+            super().__init__()
+            self.config = config
+            self.pose = nn.Parameter(torch.zeros(config.n_features))
+
+        def loss(self, batch):
+            return {"loss": ((batch - self.pose) ** 2).mean()}
+
+
+    CARD = ModelCard("mean_pose", MeanPose, MeanPoseConfig,
+                     schedule={"lr": choice(1e-2, "a test's choice")})
+"""
+
+
+def test_adding_a_model_is_its_file_plus_one_line(tmp_path, monkeypatch):
+    """A new model file in motionlab/models and its name in FILES: the command line trains it
+    (with --paper too) and its checkpoint loads, with nothing else changed."""
+    folder = tmp_path / "more_models"
+    folder.mkdir()
+    (folder / "mean_pose.py").write_text(textwrap.dedent(TINY_MODEL))
+    monkeypatch.setattr(models, "__path__", [*models.__path__, str(folder)])
+    monkeypatch.setattr(models, "FILES", (*models.FILES, "mean_pose"))          # the one line
+    monkeypatch.delitem(sys.modules, "motionlab.models.mean_pose", raising=False)
+    out = tmp_path / "mean_pose.pt"
+    history = cli.main(["mean_pose", *QUICK, "--paper", "--out", str(out)])
+    assert len(history.train) == 1
+    checkpoint = training.load_checkpoint(out)
+    assert type(checkpoint.model).__name__ == "MeanPose" and checkpoint.model.config.window == 8
+    monkeypatch.delitem(sys.modules, "motionlab.models.mean_pose", raising=False)

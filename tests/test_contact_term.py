@@ -91,13 +91,13 @@ def test_vae_lstm_loss_is_unchanged_without_the_term(prepared, free_running):
     assert VAELSTMConfig().contact_weight == 0.0 and DFNConfig().contact_weight == 0.0
     plain = vae_lstm(prepared, 0.0, free_running=free_running)
     torch.manual_seed(5)
-    with_normaliser = plain.loss(batch)
+    with_normalizer = plain.loss(batch)
     plain.normalizer = None                               # the term needs none when it is off
     torch.manual_seed(5)
     without = plain.loss(batch)
     assert "contact" not in without and "free_contact" not in without
-    assert with_normaliser.keys() == without.keys()
-    assert all(torch.equal(with_normaliser[k], without[k]) for k in without)
+    assert with_normalizer.keys() == without.keys()
+    assert all(torch.equal(with_normalizer[k], without[k]) for k in without)
     on = vae_lstm(prepared, 2.0, free_running=free_running)
     torch.manual_seed(5)
     with_term = on.loss(batch)
@@ -113,11 +113,11 @@ def test_dfn_loss_is_unchanged_without_the_term(prepared, stage):
     batch = prepared.train.windows[:4]
     plain, on = dfn(prepared, 0.0, stage), dfn(prepared, 0.5, stage)
     torch.manual_seed(5)
-    with_normaliser = plain.loss(batch)
+    with_normalizer = plain.loss(batch)
     plain.normalizer = None
     torch.manual_seed(5)
     without = plain.loss(batch)
-    assert "contact" not in without and all(torch.equal(with_normaliser[k], without[k]) for k in without)
+    assert "contact" not in without and all(torch.equal(with_normalizer[k], without[k]) for k in without)
     torch.manual_seed(5)
     with_term = on.loss(batch)
     assert torch.allclose(with_term["loss"], without["loss"] + 0.5 * with_term["contact"], rtol=1e-6)
@@ -196,7 +196,7 @@ def test_a_bad_weight_names_the_field(config_class, bad):
         config_class(contact_weight=bad)
 
 
-def test_the_term_needs_the_normaliser(prepared):
+def test_the_term_needs_the_normalizer(prepared):
     model = vae_lstm(prepared, 1.0)
     model.normalizer = None
     with pytest.raises(ValueError, match="contact_weight: .*normaliser"):

@@ -56,7 +56,9 @@ def test_a_global_batch_that_does_not_split_is_refused(monkeypatch, capsys):
     """Checked before any process trains (as if 2 processes had joined), in the command line
     and in the loop itself."""
     from motionlab import train as cli
+    from motionlab.training import loop
     monkeypatch.setattr(training, "distributed", lambda: (0, 2))
+    monkeypatch.setattr(loop, "distributed", lambda: (0, 2))           # what train() itself asks
     monkeypatch.setattr(training, "init_distributed", lambda: False)
     with pytest.raises(SystemExit):
         cli.main([*ARGS, "--batch-size", "7"])

@@ -111,7 +111,7 @@ def test_every_model_refuses_bad_arguments_by_name(models, real, name):
 
 
 @pytest.mark.parametrize("name", [n for n in MAKERS if n != "vae"])
-def test_generate_needs_a_normaliser_and_restores_the_training_mode(prepared, real, name):
+def test_generate_needs_a_normalizer_and_restores_the_training_mode(prepared, real, name):
     model = MAKERS[name](prepared)
     model.train()
     with pytest.raises(ValueError, match="no normaliser"):

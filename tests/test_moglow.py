@@ -8,7 +8,8 @@ import torch
 
 from motionlab import data, training
 from motionlab.models.flows import MLPCouplingNet
-from motionlab.models.moglow import LSTMCouplingNet, MoGlow, MoGlowConfig, MoGlowStream
+from motionlab.engine.stream import MoGlowStream
+from motionlab.models.moglow import LSTMCouplingNet, MoGlow, MoGlowConfig
 
 SMALL = MoGlowConfig(window=16, history=4, steps=3, hidden=16)
 

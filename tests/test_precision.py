@@ -54,8 +54,8 @@ def test_onednns_lstm_computes_in_bfloat16_under_autocast():
 @bf16_cpu
 def test_moglow_coupling_lstm_computes_in_bfloat16_under_autocast():
     # the LSTM is most of MoGlow's arithmetic: under autocast it runs in bfloat16 on any CPU
-    # (the written-out LSTM of motionlab.models.recurrent, whatever oneDNN can build)
-    from motionlab.models import recurrent
+    # (the written-out LSTM of motionlab.engine.recurrent, whatever oneDNN can build)
+    from motionlab.engine import recurrent
     from motionlab.models.moglow import LSTMCouplingNet
     network = LSTMCouplingNet(3, 5, 6, hidden=8)
     lo, cond = torch.randn(2, 7, 3), torch.randn(2, 7, 5)

@@ -1,11 +1,11 @@
-"""motionlab.models.recurrent.lstm: the written-out LSTM computes what nn.LSTM does."""
+"""motionlab.engine.recurrent.lstm: the written-out LSTM computes what nn.LSTM does."""
 import pytest
 import torch
 from torch import nn
 
 from motionlab import cpu, training
 from motionlab.models.moglow import LSTMCouplingNet, MoGlow, MoGlowConfig
-from motionlab.models.recurrent import can_use, lstm, pays_off, run
+from motionlab.engine.recurrent import can_use, lstm, pays_off, run
 
 onednn_bf16_lstm = pytest.mark.skipif(not cpu.onednn_lstm(torch.bfloat16),
                                       reason=f"oneDNN builds no bfloat16 LSTM here ({cpu.summary()})")

@@ -48,6 +48,24 @@ def test_training_reduces_the_loss_and_logs_history():
         history.series("nope")
 
 
+def test_the_learning_rate_schedule():
+    from motionlab.training.schedule import lr_factor
+    warm = [lr_factor(step, 100, warmup_steps=4) for step in range(4)]
+    assert warm == [0.25, 0.5, 0.75, 1.0]                               # linear warm-up to the peak
+    cosine = [lr_factor(step, 100, warmup_steps=4, min_lr_ratio=0.1) for step in range(4, 101)]
+    assert cosine[0] == 1.0 and cosine[-1] == pytest.approx(0.1)         # from the peak to the floor
+    assert all(a > b for a, b in zip(cosine, cosine[1:]))               # falling all the way
+    assert min(cosine) >= 0.1 - 1e-12
+    assert lr_factor(50, 100, warmup_steps=0) == pytest.approx(0.55)     # half way: half way down
+    assert {lr_factor(step, 100, 4, "constant") for step in range(3, 100)} == {1.0}
+    # train() follows it: each step logs the rate the next step will use
+    config = training.TrainConfig(epochs=3, batch_size=16, lr=0.1, warmup_steps=3, progress=False)
+    history = training.train(Line(), windows(), config)
+    total = len(history.train)
+    assert [row["lr"] for row in history.train] == pytest.approx(
+        [0.1 * lr_factor(step + 1, total, 3, "cosine", config.min_lr_ratio) for step in range(total)])
+
+
 def test_a_finished_run_leaves_a_one_line_summary(capsys):
     """The progress bar's saved state in a notebook is its first; the summary line is its last."""
     model = Line()

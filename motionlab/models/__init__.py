@@ -1,36 +1,32 @@
 """One file per model, each readable top to bottom beside its paper.
 
-:data:`MODELS` maps the names the command line (``python -m motionlab.train NAME``) knows
-to ``(module, model class, config class)``.
+Each model file ends with its :class:`~motionlab.models.modelcard.ModelCard` (``CARD``): the
+name the command line knows it by, its classes, its paper's training schedule, its
+augmentation and its stages. :data:`FILES` lists the files; the command line
+(``python -m motionlab.train NAME``) and the checkpoint registry are built from their cards,
+so adding a model is its file plus its name here.
 """
-MODELS = {
-    "conv_ae": ("motionlab.models.conv_ae", "ConvAutoencoder", "ConvAEConfig"),
-    "vae": ("motionlab.models.vae", "FeatureVAE", "VAEConfig"),          # on a conv_ae's features
-    "vae_lstm": ("motionlab.models.vae_lstm", "VAELSTM", "VAELSTMConfig"),
-    "lstm": ("motionlab.models.lstm", "MotionLSTM", "LSTMConfig"),
-    "glow": ("motionlab.models.glow", "Glow", "GlowConfig"),
-    "moglow": ("motionlab.models.moglow", "MoGlow", "MoGlowConfig"),
-    "dfn": ("motionlab.models.dfn", "DFN", "DFNConfig"),                # trained in stages
-}
+from __future__ import annotations
+
+import importlib
+
+from .modelcard import ModelCard
+
+FILES = ("conv_ae", "vae", "vae_lstm", "lstm", "glow", "moglow", "dfn")
+"""The model files, by name; each ends with ``CARD = ModelCard(<its name>, ...)``."""
 
 
-def classes(name: str) -> tuple[type, type]:
-    """``(model class, config class)`` of the model ``name`` in :data:`MODELS`, imported
-    explicitly here (the command line never imports a module by a name it was given)."""
-    if name == "conv_ae":
-        from .conv_ae import ConvAEConfig as config, ConvAutoencoder as model
-    elif name == "vae":
-        from .vae import FeatureVAE as model, VAEConfig as config
-    elif name == "vae_lstm":
-        from .vae_lstm import VAELSTM as model, VAELSTMConfig as config
-    elif name == "lstm":
-        from .lstm import LSTMConfig as config, MotionLSTM as model
-    elif name == "glow":
-        from .glow import Glow as model, GlowConfig as config
-    elif name == "moglow":
-        from .moglow import MoGlow as model, MoGlowConfig as config
-    elif name == "dfn":
-        from .dfn import DFN as model, DFNConfig as config
-    else:
-        raise ValueError(f"name: expected one of {', '.join(MODELS)}, got {name!r}")
-    return model, config
+def card(name: str) -> ModelCard:
+    """The :class:`ModelCard` of the model file ``name`` (one of :data:`FILES`). Only names
+    listed here are imported: a name given on a command line is never imported as it is."""
+    if name not in FILES:
+        raise ValueError(f"name: expected one of {', '.join(FILES)}, got {name!r}")
+    found = getattr(importlib.import_module(f"{__name__}.{name}"), "CARD", None)
+    if not isinstance(found, ModelCard) or found.name != name:
+        raise ValueError(f"motionlab/models/{name}.py: expected it to end with CARD = ModelCard({name!r}, ...)")
+    return found
+
+
+def cards() -> dict[str, ModelCard]:
+    """Every model's card, in the order of :data:`FILES`."""
+    return {name: card(name) for name in FILES}

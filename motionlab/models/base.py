@@ -79,6 +79,27 @@ def eval_mode(model: torch.nn.Module):
         model.train(was_training)
 
 
+def check_tensor(x, name: str, features: int | tuple[int, ...], min_frames: int = 1, *, even: bool = False,
+                 multiple: int = 1, finite: bool = True, frames_text: str | None = None) -> None:
+    """The tensor twin of :func:`motionlab.checks.array`, for the models' batches: ``x`` must be
+    a ``(batch, frames, features)`` tensor (``features`` one size or several allowed), with at
+    least ``min_frames`` frames, an even number of them (``even``) or a multiple of
+    ``multiple``, and (``finite``) no NaN or infinite value; else ``ValueError`` naming ``name``,
+    what was expected and what came."""
+    allowed = (features,) if isinstance(features, int) else tuple(features)
+    want = " or ".join(str(f) for f in allowed)
+    frames = frames_text or ("even frames" if even else "frames" if multiple > 1 or min_frames < 1
+                             else f"frames >= {min_frames}")
+    expected = f"(batch, {frames}, {want})" + (f" with frames a multiple of {multiple}" if multiple > 1 else "")
+    if not isinstance(x, torch.Tensor):
+        raise ValueError(f"{name}: expected {expected} tensor, got {type(x).__name__}")
+    if (x.ndim != 3 or x.shape[-1] not in allowed or x.shape[0] == 0 or x.shape[1] < max(min_frames, 1)
+            or (even and x.shape[1] % 2) or x.shape[1] % multiple):
+        raise ValueError(f"{name}: expected {expected}, got {tuple(x.shape)}")
+    if finite and not torch.isfinite(x).all():
+        raise ValueError(f"{name}: contains NaN or infinite values")
+
+
 def generator_for(seed) -> torch.Generator:
     """A CPU ``torch.Generator`` seeded with ``seed`` (a whole number >= 0)."""
     return torch.Generator().manual_seed(checks.whole(seed, "seed", 0))
@@ -110,7 +131,7 @@ class GenerativeModel:
     follows_control = False
     continues_motion = False
 
-    def _normaliser(self):
+    def _normalizer(self):
         if self.normalizer is None:
             raise ValueError(f"{type(self).__name__}: no normaliser, so generate() cannot work in the data's units; "
                              "train it with training.train, load it with training.load_checkpoint or "
@@ -151,16 +172,16 @@ class GenerativeModel:
                              f"got {prefix.shape}")
         return prefix
 
-    def _normalised_control(self, control, n: int, frames: int | None = None) -> torch.Tensor:
+    def _normalized_control(self, control, n: int, frames: int | None = None) -> torch.Tensor:
         """:meth:`_control_array`, normalised: a float32 tensor ``(n, frames, 3)``."""
         control = self._control_array(control, n, frames)
-        norm = self._normaliser()
+        norm = self._normalizer()
         return torch.tensor((control - norm.mean[CONTROL]) / norm.std[CONTROL], dtype=torch.float32)
 
-    def _normalised_prefix(self, prefix, n: int, min_frames: int = 1) -> torch.Tensor:
+    def _normalized_prefix(self, prefix, n: int, min_frames: int = 1) -> torch.Tensor:
         """:meth:`_prefix_array`, normalised: a float32 tensor ``(n, k, 66)``."""
         prefix = self._prefix_array(prefix, n, min_frames)
-        return torch.tensor(self._normaliser().normalize(prefix), dtype=torch.float32)
+        return torch.tensor(self._normalizer().normalize(prefix), dtype=torch.float32)
 
     def _refuse_prefix(self, prefix) -> None:
         if prefix is not None:
@@ -172,7 +193,7 @@ class GenerativeModel:
 
     def _result(self, normalised: torch.Tensor) -> Generated:
         """Normalised features ``(n, frames, 66)`` -> :class:`Generated` in the data's units."""
-        return self._result_in_data_units(self._normaliser().denormalize(normalised.detach().cpu().double().numpy()))
+        return self._result_in_data_units(self._normalizer().denormalize(normalised.detach().cpu().double().numpy()))
 
     def _result_in_data_units(self, features) -> Generated:
         features = np.asarray(features, dtype=np.float64)

@@ -25,7 +25,8 @@ from torch import nn
 
 from .. import checks
 from ..representation import N_POSE
-from .base import contact_term, eval_mode
+from .base import check_tensor, contact_term, eval_mode
+from .modelcard import NO_CLIP, ModelCard, choice, paper
 
 
 @dataclass(frozen=True)
@@ -102,14 +103,7 @@ class ConvAutoencoder(nn.Module):
 
     def _check(self, x: torch.Tensor, name: str = "x", even: bool = True) -> None:
         """Refuse anything but a finite tensor ``(batch, frames, n_features)`` (even frames if ``even``)."""
-        expected = f"(batch, {'even ' if even else ''}frames, {self.config.n_features})"
-        if not isinstance(x, torch.Tensor):
-            raise ValueError(f"{name}: expected {expected} tensor, got {type(x).__name__}")
-        if (x.ndim != 3 or x.shape[-1] != self.config.n_features or 0 in x.shape[:2]
-                or (even and x.shape[1] % 2)):
-            raise ValueError(f"{name}: expected {expected}, got {tuple(x.shape)}")
-        if not torch.isfinite(x).all():
-            raise ValueError(f"{name}: contains NaN or infinite values")
+        check_tensor(x, name, self.config.n_features, even=even, frames_text=None if even else "frames")
 
     def encode(self, x: torch.Tensor, return_indices: bool = False):
         """Φ(x) = Ψ(ReLU(x * W + b)): ``(batch, frames, n_features)`` -> ``(batch, frames // 2, filters)``."""
@@ -216,3 +210,20 @@ class ConvAutoencoder(nn.Module):
                 ("depool: twice the frames again", tuple(up.shape)),
                 (f"conv back to {self.config.n_features} features", tuple(out.shape)),
                 ("transposed back (batch, frames, features)", tuple(out.transpose(1, 2).shape))]
+
+
+# ------------------------------------------------------------------------ training, as the paper says
+
+def motegi_schedule(section: str) -> dict:
+    """Motegi et al. 2018 trains the conv AE (§III-B) and the VAE (§IV-B) alike."""
+    return {
+        "optimizer": paper("Adam", f"Motegi 2018 §{section}: 'Adam optimization algorithm'"),
+        "batch_size": paper(100, f"§{section}: 'the batch size is 100'"),
+        "epochs": paper(200, f"§{section}: 'performed for 200 epochs'"),
+        "lr": choice(1e-3, "Motegi gives no learning rate: Adam's default (Kingma & Ba 2015)"),
+        "schedule": choice("constant", "no decay is mentioned"),
+        "grad_clip": choice(1.0, NO_CLIP),
+    }
+
+
+CARD = ModelCard("conv_ae", ConvAutoencoder, ConvAEConfig, schedule=motegi_schedule("III-B"))

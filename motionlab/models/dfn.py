@@ -45,7 +45,8 @@ from torch import nn
 from .. import checks
 from . import gaussian
 from ..skeleton import LOCOMOTION
-from .base import Generated, GenerativeModel, eval_mode, generator_for
+from .base import Generated, GenerativeModel, check_tensor, eval_mode, generator_for
+from .modelcard import NO_CLIP, ModelCard, choice, paper
 
 STAGES = ("frame", "sequence", "dynamics")
 """The training stages, in order (§5.6)."""
@@ -434,12 +435,7 @@ class DFN(GenerativeModel, nn.Module):
     # -- checks --------------------------------------------------------------------------
 
     def _check(self, x: torch.Tensor, name: str, min_frames: int = 1) -> None:
-        n = self.config.n_features
-        if not isinstance(x, torch.Tensor) or x.ndim != 3 or x.shape[-1] != n or x.shape[1] < min_frames:
-            shape = tuple(x.shape) if isinstance(x, torch.Tensor) else type(x).__name__
-            raise ValueError(f"{name}: expected (batch, frames >= {min_frames}, {n}), got {shape}")
-        if not torch.isfinite(x).all():
-            raise ValueError(f"{name}: contains NaN or infinite values")
+        check_tensor(x, name, self.config.n_features, min_frames)
 
     # -- stages --------------------------------------------------------------------------
 
@@ -766,7 +762,23 @@ class DFN(GenerativeModel, nn.Module):
         ignored; the model chooses its own path. Temperature 0 gives the mean path.
         """
         n, temperature = self._check_common(n, temperature, seed)
-        prefix = self._normalised_prefix(prefix, n)
+        prefix = self._normalized_prefix(prefix, n)
         frames = checks.whole(frames, "frames", 1)
         k = prefix.shape[1]
         return self._result(self.sample(prefix, k + frames, float(temperature), generator_for(seed))[:, k:])
+
+
+# ------------------------------------------------------------------------ training
+
+CARD = ModelCard("dfn", DFN, DFNConfig, stages=STAGES, augment=("mirror",), schedule={
+    "stages": paper("frame, then sequence, then dynamics with both frozen", "Chen 2020 §5.1 and §5.6"),
+    "optimizer": choice("Adam", "Chen 2020 names no optimiser, learning rate, batch size or epochs"),
+    "stage_epochs": choice({"frame": 100, "sequence": 100, "dynamics": 200},
+                           "not in the paper: notebook 07's PAPER setting"),
+    "lr": choice(3e-3, "not in the paper: notebook 07's"),
+    "batch_size": choice(64, "not in the paper: notebook 07's"),
+    "schedule": choice("cosine", "not in the paper: notebook 07's, motionlab's default"),
+    "grad_clip": choice(1.0, NO_CLIP),
+})
+"""DFN has no control, so time-reversed clips would teach it to walk backwards on its own
+(notebook 07): its clips are only mirrored."""

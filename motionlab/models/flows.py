@@ -58,6 +58,9 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
+from .base import GenerativeModel
+from .modelcard import NO_CLIP, choice, paper
+
 NetworkFactory = Callable[[int, int, int], nn.Module]
 """``make_network(in_channels, cond_channels, out_channels) -> nn.Module``."""
 
@@ -547,3 +550,51 @@ class GaussianPrior(nn.Module):
             raise ValueError(f"temperature: expected a finite number >= 0, got {temperature}")
         noise = torch.randn(shape, generator=generator, device=device, dtype=dtype)
         return temperature * noise
+
+
+class MotionFlow(GenerativeModel, nn.Module):
+    """What Glow and MoGlow share: the layout of a frame's features inside the flow.
+
+    The flow models the pose (the whole frame for an unconditional model) less the
+    ``constant_features`` (the hips' root-local ``x`` and ``z``, always 0): ``n_modelled``
+    values per frame, at the feature indices ``modelled``; the control columns are
+    ``control``.
+    """
+
+    def _set_layout(self, config, described: int) -> None:
+        modelled = [i for i in range(described) if i not in config.constant_features]
+        self.register_buffer("modelled", torch.tensor(modelled), persistent=False)
+        self.register_buffer("constant", torch.tensor(sorted(set(config.constant_features)), dtype=torch.long),
+                             persistent=False)
+        self.control = slice(config.n_features - config.n_control, config.n_features)
+        self.n_modelled = len(modelled)
+
+    def join_features(self, x: torch.Tensor, control: torch.Tensor | None) -> torch.Tensor:
+        """Modelled values ``(batch, frames, n_modelled)`` and the control ``(batch, frames,
+        n_control)`` (or ``None``: the flow models it too, or it is unknown) -> features
+        ``(batch, frames, n_features)``, constant features 0."""
+        features = x.new_zeros(x.shape[:2] + (self.config.n_features,))
+        features[..., self.modelled] = x
+        if control is not None:
+            features[..., self.control] = control
+        return features
+
+
+# ------------------------------------------------------------------------ training, as the paper says
+
+MOGLOW_CODE = ("not in the paper: the authors' released config, github.com/simonalexanderson/"
+               "StyleGestures hparams/paper_version/locomotion.json")
+
+
+def henter_schedule(steps: int, which: str) -> dict:
+    """Henter et al. 2020 §5.2 gives the optimiser and the number of steps only (Glow and MoGlow)."""
+    return {
+        "optimizer": paper("Adam", "Henter 2020 §5.2: 'using Adam'"),
+        "max_steps": paper(steps, f"§5.2: the {which} model, '{steps // 1000}k steps'"),
+        "batch_size": choice(100, MOGLOW_CODE),
+        "lr": choice(1e-4, MOGLOW_CODE),
+        "warmup_steps": choice(1000, MOGLOW_CODE + " (its Noam decay has a floor at the peak "
+                                     "learning rate: constant after the warm-up)"),
+        "schedule": choice("constant", MOGLOW_CODE),
+        "grad_clip": choice(1.0, NO_CLIP + "; the authors' code clips the norm at 100"),
+    }

@@ -35,11 +35,11 @@ from functools import partial
 
 import numpy as np
 import torch
-from torch import nn
 
 from .. import checks
-from .base import Generated, GenerativeModel, generator_for
-from .flows import ConvCouplingNet, GaussianPrior, MultiScaleFlow
+from .base import Generated, check_tensor, generator_for
+from .flows import ConvCouplingNet, GaussianPrior, MotionFlow, MultiScaleFlow, henter_schedule
+from .modelcard import ModelCard
 
 
 @dataclass(frozen=True)
@@ -99,34 +99,6 @@ class GlowConfig:
         return replace(cls(levels=4, steps=32, hidden=512, window=80, fps=20.0, conditional=True), **changes)
 
 
-class MotionFlow(GenerativeModel, nn.Module):
-    """What Glow and MoGlow share: the layout of a frame's features inside the flow.
-
-    The flow models the pose (the whole frame for an unconditional model) less the
-    ``constant_features`` (the hips' root-local ``x`` and ``z``, always 0): ``n_modelled``
-    values per frame, at the feature indices ``modelled``; the control columns are
-    ``control``.
-    """
-
-    def _set_layout(self, config, described: int) -> None:
-        modelled = [i for i in range(described) if i not in config.constant_features]
-        self.register_buffer("modelled", torch.tensor(modelled), persistent=False)
-        self.register_buffer("constant", torch.tensor(sorted(set(config.constant_features)), dtype=torch.long),
-                             persistent=False)
-        self.control = slice(config.n_features - config.n_control, config.n_features)
-        self.n_modelled = len(modelled)
-
-    def join_features(self, x: torch.Tensor, control: torch.Tensor | None) -> torch.Tensor:
-        """Modelled values ``(batch, frames, n_modelled)`` and the control ``(batch, frames,
-        n_control)`` (or ``None``: the flow models it too, or it is unknown) -> features
-        ``(batch, frames, n_features)``, constant features 0."""
-        features = x.new_zeros(x.shape[:2] + (self.config.n_features,))
-        features[..., self.modelled] = x
-        if control is not None:
-            features[..., self.control] = control
-        return features
-
-
 class Glow(MotionFlow):
     """The fixed-length sequence Glow of §3.3-3.4.
 
@@ -150,12 +122,8 @@ class Glow(MotionFlow):
     # -- data in and out -----------------------------------------------------------------
 
     def _check(self, batch: torch.Tensor) -> None:
-        n = self.config.n_features
-        multiple = 2 ** (self.config.levels - 1)
-        if not isinstance(batch, torch.Tensor) or batch.ndim != 3 or batch.shape[-1] != n \
-                or batch.shape[1] % multiple or batch.shape[1] == 0:
-            shape = tuple(batch.shape) if isinstance(batch, torch.Tensor) else type(batch).__name__
-            raise ValueError(f"batch: expected (batch, frames, {n}) with frames a multiple of {multiple}, got {shape}")
+        check_tensor(batch, "batch", self.config.n_features, multiple=2 ** (self.config.levels - 1), finite=False,
+                     frames_text="frames")
 
     def split_features(self, batch: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor | None]:
         """``(x, cond)``: the flow's data ``(batch, frames, n_modelled)`` and the control
@@ -272,7 +240,7 @@ class Glow(MotionFlow):
         n, temperature = self._check_common(n, temperature, seed)
         self._refuse_prefix(prefix)
         if self.config.conditional:
-            control = self._normalised_control(control, n, frames)
+            control = self._normalized_control(control, n, frames)
             frames = control.shape[1]
         else:
             control = None
@@ -291,3 +259,6 @@ class Glow(MotionFlow):
             line += f"; then {shape['split']} channels split off to z" if shape["split"] else "; all to z"
             lines.append(line)
         return lines
+
+
+CARD = ModelCard("glow", Glow, GlowConfig, schedule=henter_schedule(20_000, "fixed-length"))

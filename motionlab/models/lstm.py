@@ -30,8 +30,9 @@ import torch.nn.functional as F
 from torch import nn
 
 from .. import checks
-from . import recurrent
-from .base import Generated, GenerativeModel, eval_mode
+from ..engine import recurrent
+from .base import Generated, GenerativeModel, check_tensor, eval_mode
+from .modelcard import NO_CLIP, ModelCard, choice
 
 
 @dataclass(frozen=True)
@@ -109,10 +110,7 @@ class MotionLSTM(GenerativeModel, nn.Module):
         self.readout = nn.Linear(config.hidden, outputs)
 
     def _check(self, x: torch.Tensor, name: str, features: int, min_frames: int = 1) -> None:
-        if x.ndim != 3 or x.shape[-1] != features or x.shape[1] < min_frames:
-            raise ValueError(f"{name}: expected (batch, frames >= {min_frames}, {features}), got {tuple(x.shape)}")
-        if not torch.isfinite(x).all():
-            raise ValueError(f"{name}: contains NaN or infinite values")
+        check_tensor(x, name, features, min_frames)
 
     def forward(self, frames: torch.Tensor, next_control: torch.Tensor | None = None,
                 state: tuple[torch.Tensor, torch.Tensor] | None = None):
@@ -217,14 +215,14 @@ class MotionLSTM(GenerativeModel, nn.Module):
         nothing, and ``n > 1`` repeats one answer.
         """
         n, _ = self._check_common(n, temperature, seed)
-        prefix = self._normalised_prefix(prefix, n)
+        prefix = self._normalized_prefix(prefix, n)
         k = prefix.shape[1]
         if control is not None:
-            control = self._normalised_control(control, n, frames)
+            control = self._normalized_control(control, n, frames)
             frames = control.shape[1]
             control = torch.cat([prefix[..., self.config.n_pose:], control], dim=1)
         elif self.follows_control:
-            self._normalised_control(None, n)
+            self._normalized_control(None, n)
         frames = checks.whole(frames, "frames", 1)
         device = next(self.parameters()).device
         motion = self.sample(prefix.to(device), k + frames, None if control is None else control.to(device))
@@ -272,3 +270,18 @@ class LSTMStream:
         self.current = torch.cat([pose, control[:, None]], dim=-1)
         frame = self.current[:, 0]
         return frame if self._mean is None else frame * self._std + self._mean
+
+
+# ------------------------------------------------------------------------ training
+
+BASELINE = ("Habibie 2017 gives no training details for its LSTM-3LR baseline (§4.3, "
+            "Tables 1-2): its VAE-LSTM value, §4.2")
+
+CARD = ModelCard("lstm", MotionLSTM, LSTMConfig, schedule={
+    "optimizer": choice("Adam", BASELINE),
+    "lr": choice(5e-4, BASELINE),
+    "epochs": choice(5000, BASELINE),
+    "batch_size": choice(32, "not in the paper: motionlab's default"),
+    "schedule": choice("constant", "not in the paper: one learning rate, as for VAE-LSTM"),
+    "grad_clip": choice(1.0, NO_CLIP),
+})

@@ -32,6 +32,8 @@ from torch import nn
 from .. import checks
 from . import gaussian
 from .base import Generated, GenerativeModel, generator_for
+from .conv_ae import motegi_schedule
+from .modelcard import ModelCard
 
 
 @dataclass(frozen=True)
@@ -190,7 +192,7 @@ class MotionVAE(GenerativeModel):
         return self.feature_normalizer.normalize(y)
 
     @torch.no_grad()
-    def decode_normalised(self, z: torch.Tensor) -> torch.Tensor:
+    def decode_normalized(self, z: torch.Tensor) -> torch.Tensor:
         """x̃ = Φ'(μ_θ(z)) (§V): latents ``(n, latent)`` -> normalised motion ``(n, window, 66)``."""
         y_mu, _ = self.vae.decode(torch.as_tensor(z, dtype=torch.float32))
         y = self.feature_normalizer.denormalize(y_mu)
@@ -199,7 +201,7 @@ class MotionVAE(GenerativeModel):
 
     def decode(self, z: torch.Tensor) -> np.ndarray:
         """Latents ``(n, latent)`` -> motion features ``(n, window, 66)`` in the data's units."""
-        return self.normalizer.denormalize(self.decode_normalised(z).numpy())
+        return self.normalizer.denormalize(self.decode_normalized(z).numpy())
 
     @torch.no_grad()
     def reconstruct(self, windows: torch.Tensor) -> np.ndarray:
@@ -235,7 +237,7 @@ class MotionVAE(GenerativeModel):
 
     def sample(self, n: int, temperature: float = 1.0, generator: torch.Generator | None = None) -> torch.Tensor:
         """``n`` motions from the prior ``z ~ N(0, temperature² I)``: normalised ``(n, window, 66)``."""
-        return self.decode_normalised(temperature * self.vae.sample_latents(n, generator))
+        return self.decode_normalized(temperature * self.vae.sample_latents(n, generator))
 
     def generate(self, control=None, *, frames=None, prefix=None, n=1, temperature=1.0, seed=0) -> Generated:
         """``n`` new windows from the prior (§V); see :mod:`motionlab.models.base`.
@@ -272,3 +274,6 @@ def axis_effects(decode: Callable[[torch.Tensor], np.ndarray], latent: int,
         for name in d_lo:
             effects.setdefault(name, []).append(float(np.mean(d_hi[name] - d_lo[name])))
     return {name: np.array(values) for name, values in effects.items()}
+
+
+CARD = ModelCard("vae", FeatureVAE, VAEConfig, schedule=motegi_schedule("IV-B"))   # on a conv AE's features

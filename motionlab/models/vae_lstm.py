@@ -41,7 +41,8 @@ from torch import nn
 
 from .. import checks
 from . import gaussian
-from .base import Generated, GenerativeModel, eval_mode, generator_for
+from .base import Generated, GenerativeModel, check_tensor, eval_mode, generator_for
+from .modelcard import NO_CLIP, ModelCard, choice, paper
 
 POOLING = 4
 """Frames per canvas step: two max-pooling layers, each halving the frame rate (§4.2)."""
@@ -267,12 +268,7 @@ class VAELSTM(GenerativeModel, nn.Module):
     # -- checks --------------------------------------------------------------------------
 
     def _check(self, x: torch.Tensor, name: str, features: int | tuple[int, ...], min_frames: int = 1) -> None:
-        allowed = (features,) if isinstance(features, int) else features
-        if x.ndim != 3 or x.shape[-1] not in allowed or x.shape[1] < min_frames:
-            want = " or ".join(str(f) for f in allowed)
-            raise ValueError(f"{name}: expected (batch, frames >= {min_frames}, {want}), got {tuple(x.shape)}")
-        if not torch.isfinite(x).all():
-            raise ValueError(f"{name}: contains NaN or infinite values")
+        check_tensor(x, name, features, min_frames)
 
     # -- the parts -----------------------------------------------------------------------
 
@@ -478,9 +474,9 @@ class VAELSTM(GenerativeModel, nn.Module):
         and the first ``k`` frames of the result are the model's rendering of the prefix.
         """
         n, temperature = self._check_common(n, temperature, seed)
-        control = self._normalised_control(control, n, frames)
+        control = self._normalized_control(control, n, frames)
         if prefix is not None:
-            prefix = self._normalised_prefix(prefix, n, min_frames=POOLING)
+            prefix = self._normalized_prefix(prefix, n, min_frames=POOLING)
         device = next(self.parameters()).device
         return self._result(self.sample(control.to(device), None if prefix is None else prefix.to(device),
                                         temperature, generator_for(seed)))
@@ -587,3 +583,17 @@ class VAELSTM(GenerativeModel, nn.Module):
                  tuple(out["canvas"].shape)),
                 ("decoder: upsample, conv, ELU, upsample, conv (then cropped)",
                  tuple(out["reconstruction"].shape))]
+
+
+# ------------------------------------------------------------------------ training, as the paper says
+
+HABIBIE = "Habibie 2017 §4.2"
+
+CARD = ModelCard("vae_lstm", VAELSTM, VAELSTMConfig, schedule={
+    "optimizer": paper("Adam", f"{HABIBIE}: 'using the Adam optimizer'"),
+    "lr": paper(5e-4, f"{HABIBIE}: 'a learning rate of 5x10^-4'"),
+    "epochs": paper(5000, f"{HABIBIE}: 'for 5000 epochs'"),
+    "batch_size": choice(32, "§4.2 gives no batch size: motionlab's default"),
+    "schedule": choice("constant", "§4.2 names one learning rate and no decay"),
+    "grad_clip": choice(1.0, NO_CLIP),
+})

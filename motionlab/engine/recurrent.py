@@ -24,12 +24,12 @@ gate; PyTorch's gate order ``i, f, g, o``)::
     h_t = o * tanh(c_t)
 
 starting from ``h_0 = c_0 = 0``. The loop costs a few dozen small operations per frame, so
-it pays only where it saves enough (:func:`pays_off`). Measured on a 2-core CPU (AVX-512
-with AVX512-BF16), a whole MoGlow training step of 100 windows: laptop size 1.3x faster in
-float32 and 1.5x in bfloat16; paper size 1.2x in bfloat16, but 0.9x in float32, where
-oneDNN's kernel runs at the machine's float32 product rate, so there MoGlow keeps
-``nn.LSTM``. LSTM-3LR (66 inputs, three layers of 128) trains 2x slower with it and keeps
-``nn.LSTM`` too. On a GPU, cuDNN is used as before.
+it pays only where it saves enough (:func:`pays_off`): in a MoGlow training step it was
+faster at the laptop size in float32 and bfloat16 and at the paper size in bfloat16, but
+not at the paper size in float32, where oneDNN's kernel runs at the machine's float32
+product rate, so there MoGlow keeps ``nn.LSTM``; LSTM-3LR (no inputs without a gradient)
+was slower with it and keeps ``nn.LSTM`` too. ``benchmarks/moglow_speed.py`` measures both
+paths on the machine at hand. On a GPU, cuDNN is used as before.
 
 Every ``nn.LSTM`` of the library runs through :func:`run` (or :func:`from_zero_state`):
 oneDNN has no bfloat16 or float16 LSTM on many CPUs (AVX2 laptops among them), and there
@@ -66,7 +66,8 @@ def pays_off(module: nn.LSTM, extra_width: int, dtype: torch.dtype) -> bool:
     """Whether :func:`lstm` was measured faster than ``nn.LSTM`` on the CPU for an LSTM
     whose last ``extra_width`` inputs need no gradient (MoGlow's couplings): in bfloat16
     when there are such inputs; in float32 when the input gradient it skips is at least a
-    fifth of the LSTM's arithmetic (MoGlow laptop: 29 %, 1.3x faster; paper: 10 %, 0.9x).
+    fifth of the LSTM's arithmetic (MoGlow laptop: 29 % of it, faster; paper: 10 %, not;
+    ``benchmarks/moglow_speed.py`` measures it).
     Without such inputs (LSTM-3LR) it was slower. In float16, where oneDNN has no CPU LSTM
     kernel here (``nn.LSTM`` fails), it is the one that runs."""
     if dtype == torch.float16:
