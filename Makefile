@@ -41,11 +41,11 @@ test-laptop: setup
 html: setup
 	$(BIN)/jupyter nbconvert --to html --output-dir build/html notebooks/*.ipynb
 
-# The trained weights shipped in data/checkpoints (notebooks 03 to 08 load them), each made
+# The trained weights shipped in motionlab/checkpoints (notebooks 03 to 08 load them), each made
 # by its named recipe in motionlab/recipes.py (`python -m motionlab.recipes --list` prints
 # them); weights stored as float16, times in data/README.md.
 checkpoints: setup
-	$(BIN)/python -m motionlab.recipes --folder data/checkpoints
+	$(BIN)/python -m motionlab.recipes --folder motionlab/checkpoints
 
 clean:
 	rm -rf $(VENV) build *.egg-info

@@ -5,7 +5,7 @@
 For each data set (the built-in synthetic data; real CMU clips when the folder exists,
 default ../shared/mocap/cmu) four laptop-size models (`MoGlowConfig()`) are trained, or
 on synthetic data (200 built-in clips, as notebook 06 and `make checkpoints`) loaded from
-`data/checkpoints/` when they fit: MoGlow with history dropout 0.95, the same without
+`motionlab/checkpoints/` when they fit: MoGlow with history dropout 0.95, the same without
 dropout, and the Markov variant (feed-forward couplings) at the same width and widened to
 the same number of weights ("Markov, wide").
 It prints

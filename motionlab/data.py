@@ -171,9 +171,10 @@ LOADER_VERSION = 1
 """Bumped whenever reading, forward kinematics or resampling changes what a file loads as;
 it invalidates every cached clip (:func:`load`)."""
 
-CLIP_CACHE = Path(__file__).resolve().parents[1] / "data" / "cache" / "clips"
-"""The default cache of loaded clips, in the repository's ignored ``data/cache``. Not beside
-the data: motion capture folders are often shared or read-only."""
+CLIP_CACHE = files_.cache() / "clips"
+"""The default cache of loaded clips, in the course's cache (:func:`motionlab.files.cache`: the
+repository's ignored ``data/cache`` in a checkout). Not beside the data: motion capture
+folders are often shared or read-only."""
 
 
 def _progress(files: list[Path]):

@@ -1,6 +1,6 @@
 """The trained models shipped with the course, ready to generate.
 
-``data/checkpoints`` holds weights made by ``make checkpoints`` (the command line,
+``motionlab/checkpoints`` holds weights made by ``make checkpoints`` (the command line,
 ``python -m motionlab.train``, on the built-in synthetic data). Each file holds the model's
 config, its weights, the normaliser of its training data and how that data was made::
 
@@ -10,7 +10,7 @@ config, its weights, the normaliser of its training data and how that data was m
     motion = model.generate(control, prefix=start, n=4, seed=0)
 
 :func:`shipped_or_train` and :func:`moglow_or_train` are what the notebooks call: the shipped checkpoint when it fits the
-notebook's config and data, else a model trained now (and cached in ``data/cache``).
+notebook's config and data, else a model trained now (and cached in :data:`CACHE`).
 
 Loading never runs code from a file: only motionlab's registered model classes are built
 (:func:`motionlab.training.load_checkpoint`).
@@ -22,15 +22,17 @@ from pathlib import Path
 
 import torch
 
-from . import training
+from . import files, training
 from .models.moglow import MoGlow, MoGlowConfig
 from .recipes import RECIPES
 
-CHECKPOINTS = Path(__file__).resolve().parents[1] / "data" / "checkpoints"
-"""The repository's ``data/checkpoints``."""
+CHECKPOINTS = files.checkpoints()
+"""The shipped checkpoints: ``motionlab/checkpoints``, installed with the package
+(``$MOTIONLAB_CHECKPOINTS`` to use others)."""
 
-CACHE = CHECKPOINTS.parent / "cache"
-"""Where notebooks cache the models they train (ignored by git)."""
+CACHE = files.cache()
+"""Where notebooks cache the models they train: the repository's ``data/cache`` (ignored by
+git) in a checkout, else the user's cache folder (:func:`motionlab.files.cache`)."""
 
 MOGLOW_VARIANTS = {"dropout": "moglow", "no_dropout": "moglow_no_dropout", "markov": "moglow_markov",
                    "markov_matched": "moglow_markov_matched", "foot_anchor": "moglow_foot_anchor"}
@@ -79,7 +81,7 @@ def shipped_or_train(name: str, model: torch.nn.Module, prepared, config: traini
                      retrain: bool = False) -> tuple[torch.nn.Module, "training.History"]:
     """The shipped model ``name`` when its checkpoint holds ``model``'s class and config
     trained on data made like ``prepared``; otherwise ``model`` trained now with ``config``
-    (and cached in ``data/cache/<name>.pt``, so a second run loads it). ``retrain=True``
+    (and cached in ``CACHE/<name>.pt``, so a second run loads it). ``retrain=True``
     always trains. Returns the model in eval mode, with ``model.normalizer``, and its
     history (the shipped one: how long the checkpoint took, its loss curves)."""
     path(name)                                                    # a known name, or ValueError
@@ -95,7 +97,7 @@ def moglow_or_train(prepared, variant: str = "dropout", config: MoGlowConfig = M
     Uses the shipped checkpoint when it holds this config trained on data made the same
     way; otherwise trains as the variant's recipe does (:mod:`motionlab.recipes`: Adam 3e-3,
     batches of 32, 60 epochs unless ``epochs`` is given) and caches the result in ``cache``
-    (default ``data/cache/moglow_<variant>.pt``). ``retrain=True`` always trains.
+    (default ``CACHE/moglow_<variant>.pt``). ``retrain=True`` always trains.
     """
     if variant not in MOGLOW_VARIANTS:
         raise ValueError(f"variant: expected one of {', '.join(MOGLOW_VARIANTS)}, got {variant!r}")

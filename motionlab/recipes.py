@@ -59,11 +59,11 @@ class Recipe:
         return [self.model, *(part.replace("{folder}", str(folder)) for part in self.options),
                 "--out", str(Path(folder) / self.file)]
 
-    def command(self, folder: str | Path = "data/checkpoints") -> str:
+    def command(self, folder: str | Path = "motionlab/checkpoints") -> str:
         """The recipe as one shell line, to read or to paste."""
         return "python -m motionlab.train " + shlex.join(self.argv(folder))
 
-    def _parsed(self, folder: str | Path = "data/checkpoints") -> argparse.Namespace:
+    def _parsed(self, folder: str | Path = "motionlab/checkpoints") -> argparse.Namespace:
         from . import train
         parser = train.build_parser()
         args = parser.parse_args(self.argv(folder))
@@ -147,7 +147,7 @@ def main(argv: list[str] | None = None) -> None:
                                      description="Train the shipped models from their recipes.")
     parser.add_argument("names", nargs="*", metavar="NAME",
                         help=f"which (default: all, in order): {', '.join(RECIPES)}")
-    parser.add_argument("--folder", default="data/checkpoints", help="where the checkpoints go")
+    parser.add_argument("--folder", default="motionlab/checkpoints", help="where the checkpoints go")
     parser.add_argument("--list", action="store_true", help="print the recipes and stop")
     args = parser.parse_args(argv)
     unknown = [name for name in args.names if name not in RECIPES]

@@ -12,7 +12,7 @@ from motionlab import checkpoints, data, training
 from motionlab.models.conv_ae import ConvAEConfig, ConvAutoencoder
 from motionlab.models.glow import Glow, GlowConfig
 
-SHIPPED = Path(__file__).resolve().parents[1] / "data" / "checkpoints" / "moglow_dropout.pt"
+SHIPPED = Path(__file__).resolve().parents[1] / "motionlab" / "checkpoints" / "moglow_dropout.pt"
 SMALL = ConvAEConfig(window=8, filters=4, width=3)
 
 

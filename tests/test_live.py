@@ -20,7 +20,7 @@ FPS = 20.0
 @pytest.fixture(scope="module")
 def moglow():
     if "moglow" not in pretrained.available():
-        pytest.skip("the shipped MoGlow is not in data/checkpoints")
+        pytest.skip("the shipped MoGlow is not in motionlab/checkpoints")
     return pretrained.load("moglow")
 
 
@@ -104,7 +104,7 @@ def test_held_forward_walks_and_letting_go_stops(moglow):
 
 def test_the_lstm_baseline_streams_and_switches_mid_walk(moglow):
     if "lstm_control" not in pretrained.available():
-        pytest.skip("the shipped LSTM-3LR is not in data/checkpoints")
+        pytest.skip("the shipped LSTM-3LR is not in motionlab/checkpoints")
     lstm = pretrained.load("lstm_control")
     character = live.LiveCharacter(moglow, FPS)
     live.record(character, ((1.0, ("forward",)),))

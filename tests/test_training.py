@@ -203,11 +203,11 @@ def test_train_or_load_prefers_a_matching_pretrained_checkpoint_and_never_writes
 
 
 def test_shipped_moglow_checkpoints_fit_the_default_config():
-    # data/checkpoints holds what `make checkpoints` makes; notebook 06 relies on them matching
+    # motionlab/checkpoints holds what `make checkpoints` makes; notebook 06 relies on them matching
     from dataclasses import replace
     from pathlib import Path
     from motionlab.models.moglow import MoGlowConfig
-    folder = Path(__file__).resolve().parents[1] / "data" / "checkpoints"
+    folder = Path(__file__).resolve().parents[1] / "motionlab" / "checkpoints"
     default = MoGlowConfig()
     for name, config in [("dropout", default), ("no_dropout", replace(default, dropout=0.0)),
                          ("markov", replace(default, recurrent=False)),
