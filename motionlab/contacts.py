@@ -33,6 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import checks, metrics
+from .filters import smoothstep
 from .representation import along_path, to_positions
 from .skeleton import FEET, LOCOMOTION, Skeleton
 
@@ -261,11 +262,6 @@ def _pivot(hip, toe, reach, foot, near) -> np.ndarray:
     return hip + x[:, None] * u + r[:, None] * w
 
 
-def _smoothstep(x: np.ndarray) -> np.ndarray:
-    x = np.clip(x, 0.0, 1.0)
-    return x * x * (3 - 2 * x)
-
-
 class FootLock:
     """The foot lock, causal: :meth:`step` takes one frame (of ``batch`` characters) and
     returns it with the feet locked, using nothing from later frames.
@@ -382,7 +378,7 @@ class FootLock:
         limit = np.take_along_axis(np.broadcast_to(self.height_m.reshape(2, 2), heights.shape), lowest, -1)[..., 0]
         drop = -above * np.clip((RELEASE * limit - above) / ((RELEASE - 1) * limit), 0.0, 1.0)
         self.held = np.where(active, self.held + 1, 0)
-        ramp = _smoothstep(self.held / self.blend)
+        ramp = smoothstep(self.held / self.blend)
         # let go: both fade from where they were; the offset more slowly near the floor
         letting_go = self.locked & ~active
         joints_go = np.repeat(letting_go, 2, axis=1)
@@ -391,11 +387,11 @@ class FootLock:
         clear = (heights >= self.height_m.reshape(2, 2)).all(-1)
         self.age = np.where(active, np.inf, np.where(letting_go, 0, self.age + np.where(clear, 1.0, LOW_FADE)))
         self.lift_age = np.where(active, np.inf, np.where(letting_go, 0, self.lift_age + 1))
-        fade = 1 - _smoothstep(self.age / self.release)
+        fade = 1 - smoothstep(self.age / self.release)
         self.offset = np.where(np.repeat(active, 2, axis=1)[..., None], offset,
                                self.let_go * np.repeat(fade, 2, axis=1)[..., None])
         self.lift = np.where(active, ramp * drop + (1 - ramp) * self.lift,
-                             self.lift_from * (1 - _smoothstep(self.lift_age / self.blend)))
+                             self.lift_from * (1 - smoothstep(self.lift_age / self.blend)))
 
     def _leg(self, frame: np.ndarray, out: np.ndarray, leg: int, contact: np.ndarray, active: np.ndarray) -> None:
         """Write leg ``leg``'s knee, ankle and toe into ``out``: IK to the ankle's target,

@@ -26,9 +26,9 @@ from . import files as files_
 from . import bvh as bvh_io
 from .clip import CMU_UNIT_M, Clip
 from .representation import FACING_SMOOTHING_S, POSE, mirror_features, reverse_features, to_positions
-from .skeleton import CMU_JOINTS, CMU_TO_LOCOMOTION, LOCOMOTION
+from .skeleton import LOCOMOTION, LOCOMOTION_JOINTS
 
-LOCOMOTION_FROM_CMU = tuple(CMU_JOINTS[i] for i in CMU_TO_LOCOMOTION)
+LOCOMOTION_FROM_CMU = LOCOMOTION_JOINTS                  # the CMU names of the 21 joints, in their order
 
 MOTION_SUFFIXES = (".bvh", ".amc")
 """File types :func:`load` reads from a folder (in any letter case: ``.BVH`` too)."""

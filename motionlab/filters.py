@@ -40,6 +40,13 @@ def _convolve_time(x: np.ndarray, kernel: np.ndarray) -> np.ndarray:
     return (windows @ kernel).reshape(x.shape)
 
 
+def smoothstep(x: np.ndarray) -> np.ndarray:
+    """``3x² - 2x³`` on ``x`` clipped to [0, 1]: a ramp from 0 to 1 with zero slope at both
+    ends, for blends that must not jump (a foot lock's release, a gait's onset)."""
+    x = np.clip(x, 0.0, 1.0)
+    return x * x * (3 - 2 * x)
+
+
 def gaussian_smooth(x: np.ndarray, sigma_frames: float) -> np.ndarray:
     """Smooth ``x`` ``(frames, ...)`` along time with a Gaussian of ``sigma_frames`` frames
     (0: no smoothing, a copy of ``x``)."""

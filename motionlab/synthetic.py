@@ -38,7 +38,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from . import checks
-from .filters import gaussian_smooth
+from .filters import gaussian_smooth, smoothstep
 from .representation import CONTROL, integrate_control, to_features
 from .rotations import axis_rotation, y_rotation
 from .skeleton import LOCOMOTION
@@ -188,11 +188,6 @@ def random_control(duration_s: float, fps: float, rng: np.random.Generator | int
 # Helpers
 # ----------------------------------------------------------------------------------------
 
-def _smoothstep(x: np.ndarray) -> np.ndarray:
-    x = np.clip(x, 0.0, 1.0)
-    return x * x * (3 - 2 * x)
-
-
 def _apply(rotations: np.ndarray, vectors: np.ndarray) -> np.ndarray:
     """``(F, 3, 3) @ (F, 3)`` or ``(F, 3, 3) @ (3,)`` -> ``(F, 3)``."""
     return np.einsum("fab,fb->fa", rotations, np.broadcast_to(vectors, rotations.shape[:-1]))
@@ -323,14 +318,14 @@ def gait_timing(padded: np.ndarray, fps: float, style: Style, phase: float = 0.0
     forward, sideways, turning = padded.T
     smooth = lambda x: gaussian_smooth(x, 0.15 * fps)  # noqa: E731
     planar = np.hypot(forward, sideways)
-    active = smooth(_smoothstep(np.maximum(planar / 0.5, np.abs(turning) / 0.8)))
-    running = smooth(_smoothstep((forward - style.run_speed + 0.3) / 0.6))
+    active = smooth(smoothstep(np.maximum(planar / 0.5, np.abs(turning) / 0.8)))
+    running = smooth(smoothstep((forward - style.run_speed + 0.3) / 0.6))
     cadence = style.cadence * cadence_steps_per_s(planar, running)
     stance_fraction = ((1 - running) * (0.64 - 0.02 * np.minimum(planar, 2.0))
                        + running * (0.40 - 0.025 * np.minimum(planar, 5.0)))
     stride_s = 2.0 / cadence
     cycles = phase + np.concatenate([[0.0], np.cumsum(0.5 * (cadence[1:] + cadence[:-1]) / 2 / fps)])
-    forwardness = smooth(_smoothstep(forward / 1.0))          # heel-toe roll when going forwards
+    forwardness = smooth(smoothstep(forward / 1.0))          # heel-toe roll when going forwards
     return Gait(np.arange(len(padded)) / fps, planar, active, running, stance_fraction, stride_s,
                 cycles, forwardness)
 
@@ -577,14 +572,14 @@ def preset_control(name: str, duration_s: float = 8.0, fps: float = 20.0, ramp_s
         raise ValueError(f"duration_s, fps must be > 0 and ramp_s >= 0, got {duration_s}, {fps}, {ramp_s}")
     frames = max(2, int(round(duration_s * fps)))
     t = np.arange(frames) / fps
-    ramp = _smoothstep(t / ramp_s) if ramp_s > 0 else np.ones(frames)
+    ramp = smoothstep(t / ramp_s) if ramp_s > 0 else np.ones(frames)
     target = {"stand still": (0.0, 0.0, 0.0), "walk": (1.3, 0.0, 0.0), "run": (3.2, 0.0, 0.0),
               "circle": (1.2, 0.0, 0.6), "side-step": (0.0, 0.5, 0.0), "backwards": (-0.8, 0.0, 0.0),
               "walk, then stop": (1.3, 0.0, 0.0)}[name]
     control = ramp[:, None] * np.asarray(target)[None]
     if name == "walk, then stop":
         half = duration_s / 2
-        control *= 1.0 - _smoothstep((t - half) / max(ramp_s, 1.0 / fps))[:, None]
+        control *= 1.0 - smoothstep((t - half) / max(ramp_s, 1.0 / fps))[:, None]
     return control
 
 
@@ -631,8 +626,8 @@ class StrideWobble:
         control = checks.array(control, "control", (3,))
         forward, sideways, turning = control
         planar = float(np.hypot(forward, sideways))
-        running = float(_smoothstep((forward - self.style.run_speed + 0.3) / 0.6))
-        active = float(_smoothstep(max(planar / 0.5, abs(turning) / 0.8)))
+        running = float(smoothstep((forward - self.style.run_speed + 0.3) / 0.6))
+        active = float(smoothstep(max(planar / 0.5, abs(turning) / 0.8)))
         blend = lambda pair: pair[0] + (pair[1] - pair[0]) * running          # noqa: E731
         angle = 2 * np.pi * self.phase
         out = control.copy()

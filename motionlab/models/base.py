@@ -28,6 +28,7 @@ Conv autoencoders do not generate; they reconstruct (:meth:`ConvAutoencoder.forw
 """
 from __future__ import annotations
 
+import math
 from contextlib import contextmanager
 from dataclasses import dataclass
 
@@ -98,6 +99,18 @@ def check_tensor(x, name: str, features: int | tuple[int, ...], min_frames: int 
         raise ValueError(f"{name}: expected {expected}, got {tuple(x.shape)}")
     if finite and not torch.isfinite(x).all():
         raise ValueError(f"{name}: contains NaN or infinite values")
+
+
+def per_frame_nll(nats: float, normalizer=None, features=None) -> dict[str, float]:
+    """A negative log-likelihood per frame, ``nats`` in normalised units, as the course reports
+    it: ``{"nats/frame", "bits/frame"}``. Given the :class:`motionlab.data.Normalizer` of the
+    data and the feature indices the model scores, in the data's units (metres, m/s, rad/s):
+    ``+ Σ_d ln σ_d`` over those features, the Jacobian of the normalisation."""
+    nats = float(nats)
+    if normalizer is not None:
+        index = np.asarray(features.cpu() if isinstance(features, torch.Tensor) else features, dtype=int)
+        nats += float(np.log(np.asarray(normalizer.std)[index]).sum())
+    return {"nats/frame": nats, "bits/frame": nats / math.log(2)}
 
 
 def generator_for(seed) -> torch.Generator:

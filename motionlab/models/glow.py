@@ -33,11 +33,10 @@ import math
 from dataclasses import dataclass, replace
 from functools import partial
 
-import numpy as np
 import torch
 
 from .. import checks
-from .base import Generated, check_tensor, generator_for
+from .base import Generated, check_tensor, generator_for, per_frame_nll
 from .flows import ConvCouplingNet, GaussianPrior, MotionFlow, MultiScaleFlow, henter_schedule
 from .modelcard import ModelCard
 
@@ -170,10 +169,7 @@ class Glow(MotionFlow):
         normalisation) to every frame's NLL.
         """
         total = torch.cat([-self.log_likelihood(chunk) for chunk in torch.split(windows, batch_size)])
-        per_frame = float(total.mean()) / windows.shape[1]
-        if normalizer is not None:
-            per_frame += float(np.log(np.asarray(normalizer.std)[self.modelled.cpu().numpy()]).sum())
-        return {"nats/frame": per_frame, "bits/frame": per_frame / math.log(2)}
+        return per_frame_nll(float(total.mean()) / windows.shape[1], normalizer, self.modelled)
 
     # -- sampling ------------------------------------------------------------------------
 

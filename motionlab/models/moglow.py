@@ -70,7 +70,7 @@ from torch import nn
 
 from ..engine import recurrent
 from .. import checks
-from .base import Generated, eval_mode, generator_for
+from .base import Generated, eval_mode, generator_for, per_frame_nll
 from .flows import (FlowSequence, FlowStep, GaussianPrior, MLPCouplingNet, MotionFlow, henter_schedule,
                     output_layer)
 from .modelcard import ModelCard
@@ -350,10 +350,7 @@ class MoGlow(MotionFlow):
         """
         with eval_mode(self):
             total = torch.cat([-self.log_likelihood(chunk) for chunk in torch.split(windows, batch_size)])
-        per_frame = float(total.mean()) / (windows.shape[1] - self.config.history)
-        if normalizer is not None:
-            per_frame += float(np.log(np.asarray(normalizer.std)[self.modelled.cpu().numpy()]).sum())
-        return {"nats/frame": per_frame, "bits/frame": per_frame / math.log(2)}
+        return per_frame_nll(float(total.mean()) / (windows.shape[1] - self.config.history), normalizer, self.modelled)
 
     # -- sampling ------------------------------------------------------------------------
 

@@ -21,7 +21,6 @@ rises from 0 to ``beta`` over the first training steps).
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, replace
 from typing import Callable
 
@@ -31,7 +30,7 @@ from torch import nn
 
 from .. import checks
 from . import gaussian
-from .base import Generated, GenerativeModel, generator_for
+from .base import Generated, GenerativeModel, generator_for, per_frame_nll
 from .conv_ae import motegi_schedule
 from .modelcard import ModelCard
 
@@ -232,8 +231,7 @@ class MotionVAE(GenerativeModel):
             y_mu, y_log_var = self.vae.decode(gaussian.sample(mu, log_var, generator=generator))
             reconstruction += gaussian.negative_log_likelihood(y, y_mu, y_log_var).sum(-1) / samples    # E
         kl = gaussian.kl_divergence(mu, log_var).sum(-1)                                                  # D
-        per_frame = float((reconstruction + kl).mean()) / windows.shape[1]
-        return {"nats/frame": per_frame, "bits/frame": per_frame / math.log(2)}
+        return per_frame_nll(float((reconstruction + kl).mean()) / windows.shape[1])
 
     def sample(self, n: int, temperature: float = 1.0, generator: torch.Generator | None = None) -> torch.Tensor:
         """``n`` motions from the prior ``z ~ N(0, temperature² I)``: normalised ``(n, window, 66)``."""

@@ -34,14 +34,13 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 
-import numpy as np
 import torch
 import torch.nn.functional as F
 from torch import nn
 
 from .. import checks
 from . import gaussian
-from .base import Generated, GenerativeModel, check_tensor, eval_mode, generator_for
+from .base import Generated, GenerativeModel, check_tensor, eval_mode, generator_for, per_frame_nll
 from .modelcard import NO_CLIP, ModelCard, choice, paper
 
 POOLING = 4
@@ -538,7 +537,7 @@ class VAELSTM(GenerativeModel, nn.Module):
                 z1 = gaussian.sample(mu, log_var, generator=generator)                  # eq. 3
                 motion = self.decode(self.canvas(code, z1))[:, :frames, scored]         # test-time form
                 reconstruction += self._neg_log_likelihood(motion, pose).sum(1) / samples
-        return self._per_frame(float((reconstruction + kl).mean()) / frames, normalizer, scored)
+        return per_frame_nll(float((reconstruction + kl).mean()) / frames, normalizer, scored)
 
     def nll_bound_floor(self, normalizer=None, scored=None) -> dict[str, float]:
         """The lowest value :meth:`nll_bound` can take, whatever the data and the weights:
@@ -547,7 +546,7 @@ class VAELSTM(GenerativeModel, nn.Module):
         Arguments and units as for :meth:`nll_bound`."""
         scored = self._scored(scored)
         exact = torch.zeros(len(scored))
-        return self._per_frame(float(self._neg_log_likelihood(exact, exact)), normalizer, scored)
+        return per_frame_nll(float(self._neg_log_likelihood(exact, exact)), normalizer, scored)
 
     def _scored(self, scored) -> torch.Tensor:
         """The pose feature indices a likelihood is on, checked (default: all)."""
@@ -557,13 +556,6 @@ class VAELSTM(GenerativeModel, nn.Module):
             raise ValueError(f"scored: expected distinct pose feature indices in 0 .. {self.config.n_pose - 1}")
         return scored
 
-    @staticmethod
-    def _per_frame(nats: float, normalizer, scored: torch.Tensor) -> dict[str, float]:
-        """Nats per frame in normalised units -> nats and bits per frame, in the data's units
-        when given the normaliser (``+ Σ_d ln σ_d`` over the scored features)."""
-        if normalizer is not None:
-            nats += float(np.log(np.asarray(normalizer.std)[scored.numpy()]).sum())
-        return {"nats/frame": nats, "bits/frame": nats / math.log(2)}
 
     def trace(self, x: torch.Tensor) -> list[tuple[str, tuple[int, ...]]]:
         """The shape of a window ``x`` at every stage, for a walk-through of the model."""
