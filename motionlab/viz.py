@@ -510,12 +510,15 @@ def plot_motion(features: np.ndarray, fps: float, fig=None, title: str | None = 
 
 
 def plot_contacts(positions: np.ndarray, fps: float, contacts, joint: int = 1, axes=None,
-                  planted_height_m=None, thresholds: tuple[float, float] | None = None, label: str | None = None):
+                  planted_height_m=None, thresholds: tuple[float, float] | None = None, label: str | None = None,
+                  body_fraction: float | None = None):
     """One foot joint's height above its planted height and its horizontal speed over time,
     contact frames shaded: two axes (made if ``axes`` is None). ``positions`` ``(frames, 21,
     3)``; ``contacts`` ``(frames, 4)`` booleans (``motionlab.contacts.detect``); ``joint``
     indexes ``FEET`` (0 left ankle, 1 left toe, 2 right ankle, 3 right toe);
-    ``thresholds`` ``(height m, speed m/s)`` are drawn as dotted lines. Returns the axes."""
+    ``thresholds`` ``(height m, speed m/s)`` are drawn as dotted lines; with
+    ``body_fraction`` the speed threshold is drawn as ``contacts.detect`` applies it: the
+    larger of the speed and that fraction of the hips' speed. Returns the axes."""
     from .contacts import planted_heights
     from .skeleton import FEET
     positions = checks.array(positions, "positions", ("frames", LOCOMOTION.n_joints, 3))
@@ -534,14 +537,21 @@ def plot_contacts(positions: np.ndarray, fps: float, contacts, joint: int = 1, a
     speed = np.linalg.norm(np.gradient(positions[:, j, [0, 2]], axis=0), axis=-1) * fps
     axes[0].plot(t, 100 * (positions[:, j, 1] - floor), label=label)
     axes[1].plot(t, speed, label=label)
-    axes[0].set_ylabel(f"{LOCOMOTION.names[j]}\nheight above\nplanted (cm)")
-    axes[1].set_ylabel("horizontal\nspeed (m/s)")
+    kind = ("ankle", "toe")[joint % 2]                                  # FEET: ankle, toe, ankle, toe
+    axes[0].set_ylabel(f"{LOCOMOTION.names[j]} ({kind})\nheight above\nplanted (cm)")
+    axes[1].set_ylabel(f"{kind}'s horizontal\nspeed (m/s)")
     axes[1].set_xlabel("time (s)")
-    for ax, limit in zip(axes, (None, None) if thresholds is None else (100 * thresholds[0], thresholds[1])):
+    for ax in axes:
         ax.fill_between(t, 0, 1, where=contacts[:, joint], transform=ax.get_xaxis_transform(), color="0.88",
                         label="contact" if ax is axes[0] else None)
-        if limit is not None:
-            ax.axhline(limit, color="k", ls=":", lw=1)
+    if thresholds is not None:
+        axes[0].axhline(100 * thresholds[0], color="k", ls=":", lw=1, label="height threshold")
+        limit = np.full(len(t), float(thresholds[1]))
+        if body_fraction is not None:
+            hips = np.linalg.norm(np.gradient(positions[:, 0, [0, 2]], axis=0), axis=-1) * fps
+            limit = np.maximum(limit, checks.non_negative(body_fraction, "body_fraction") * hips)
+        axes[1].plot(t, limit, color="k", ls=":", lw=1, label="speed threshold")
+        axes[1].legend(fontsize=8, loc="upper right")
     axes[0].legend(fontsize=8, loc="upper right")
     return axes
 
