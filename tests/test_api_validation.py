@@ -213,7 +213,6 @@ BAD_CALLS = {
     "ConvAutoencoder encode odd frames": (lambda: AE.encode(GOOD_X[:, :3]), "x"),
     "ConvAutoencoder decode nan": (lambda: AE.decode(torch.full((2, 8, 8), NAN)), "y"),
     "ConvAutoencoder decode 7 filters": (lambda: AE.decode(torch.zeros(2, 8, 7)), "y"),
-    "ConvAutoencoder loss nan": (lambda: AE.loss(GOOD_X * NAN), "batch"),
     "ConvAutoencoder loss 65 features": (lambda: AE.loss(GOOD_X[..., :65]), "batch"),
     "ConvAutoencoder trace 65 features": (lambda: AE.trace(GOOD_X[..., :65]), "x"),
     "ConvAutoencoder corrupt 65 features": (lambda: AE.corrupt(GOOD_X[..., :65]), "x"),

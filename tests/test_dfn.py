@@ -199,7 +199,6 @@ def test_trained_generation_is_stable_and_diversifies(prepared):
 @pytest.mark.parametrize("call, match", [
     (lambda m, w: m.loss(w[..., :65]), "batch"),
     (lambda m, w: m.loss(w[:, :2]), "batch"),                          # shorter than the horizon
-    (lambda m, w: m.loss(w.clone().fill_(float("nan"))), "NaN"),
     (lambda m, w: m.sample(w[:, :8, :63], 20), "prefix"),
     (lambda m, w: m.sample(w[0, :8], 20), "prefix"),
     (lambda m, w: m.sample(w[:, :8], 5), "frames"),

@@ -7,7 +7,7 @@ import pytest
 import torch
 from torch import nn
 
-from motionlab import data, training
+from motionlab import data, models, training
 from motionlab.models.conv_ae import ConvAEConfig, ConvAutoencoder
 
 
@@ -230,3 +230,30 @@ def test_the_step_time_estimate_leaves_the_model_and_generators_alone(capsys):
     assert all(torch.equal(v, before[k]) for k, v in model.state_dict().items())
     training.train(model, torch.randn(16, 8, 66), training.TrainConfig(epochs=1, batch_size=4, estimate=True))
     assert re.search(r"expected: [\d.e+-]+ s per step on cpu, about \d+ s for 4 steps", capsys.readouterr().out)
+
+
+def _loss_inputs(name, card):
+    torch.manual_seed(0)
+    model = card.model(card.config())
+    if name == "vae":
+        return model, torch.randn(4, model.config.n_inputs)
+    batch = 0.5 * torch.randn(4, getattr(model.config, "window", 40), 66)
+    batch[..., [0, 2]] = 0.0                                         # the hips' root-local x and z
+    if name == "dfn":
+        model.set_stage("frame", batch)
+    return model.train(), batch
+
+
+@pytest.mark.parametrize("name", models.FILES)
+def test_loss_leaves_finiteness_to_the_loop(name, monkeypatch):
+    """A finiteness scan waits for the device (a host sync on a GPU); the loop's NaN guard
+    already stops a run whose loss is not finite, so no model's loss() scans its batch, and a
+    NaN batch makes a NaN loss (which the guard names, above)."""
+    model, batch = _loss_inputs(name, models.card(name))
+    scans = []
+    real = torch.isfinite
+    monkeypatch.setattr(torch, "isfinite", lambda x, *a, **k: scans.append(1) or real(x, *a, **k))
+    monkeypatch.setattr(torch.Tensor, "isfinite", lambda self: scans.append(1) or real(self))
+    model.loss(batch)
+    assert scans == []
+    assert not real(model.loss(torch.full_like(batch, float("nan")))["loss"])

@@ -101,15 +101,20 @@ class ConvAutoencoder(nn.Module):
         # W', b': back from the manifold to every feature
         self.decoder = nn.Conv1d(config.filters, config.n_features, config.width, padding=pad, padding_mode="replicate")
 
-    def _check(self, x: torch.Tensor, name: str = "x", even: bool = True) -> None:
-        """Refuse anything but a finite tensor ``(batch, frames, n_features)`` (even frames if ``even``)."""
-        check_tensor(x, name, self.config.n_features, even=even, frames_text=None if even else "frames")
+    def _check(self, x: torch.Tensor, name: str = "x", even: bool = True, finite: bool = True) -> None:
+        """Refuse anything but a (finite) tensor ``(batch, frames, n_features)`` (even frames if ``even``)."""
+        check_tensor(x, name, self.config.n_features, even=even, finite=finite,
+                     frames_text=None if even else "frames")
 
     def encode(self, x: torch.Tensor, return_indices: bool = False):
         """Φ(x) = Ψ(ReLU(x * W + b)): ``(batch, frames, n_features)`` -> ``(batch, frames // 2, filters)``."""
         self._check(x)
+        return self._encode(x, return_indices)
+
+    def _encode(self, x: torch.Tensor, return_indices: bool = False):
+        # unchecked: encode() and forward() check their input once, loss() only its shape
         if self.training:
-            x = self.corrupt(x)
+            x = self._corrupt(x)
         x = x.transpose(1, 2)                                  # (batch, features, frames)
         hidden = F.relu(self.encoder(x))
         pooled, indices = F.max_pool1d(hidden, 2, return_indices=True)   # Ψ
@@ -122,6 +127,9 @@ class ConvAutoencoder(nn.Module):
         probability ``input_dropout``, and Gaussian noise of ``input_noise`` standard
         deviations is added."""
         self._check(x, even=False)
+        return self._corrupt(x)
+
+    def _corrupt(self, x: torch.Tensor) -> torch.Tensor:
         if self.config.input_dropout > 0:
             n_joints = (x.shape[-1] - 3) // 3
             keep_joint = torch.rand(x.shape[0], 1, n_joints, 1, device=x.device) >= self.config.input_dropout
@@ -158,10 +166,14 @@ class ConvAutoencoder(nn.Module):
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         """Reconstruct ``x`` ``(batch, frames, n_features)`` through the manifold."""
+        self._check(x)
+        return self._reconstruct(x)
+
+    def _reconstruct(self, x: torch.Tensor) -> torch.Tensor:
         if self.config.depool == "unpool":
-            y, indices = self.encode(x, return_indices=True)
+            y, indices = self._encode(x, return_indices=True)
             return self._decode(y, indices)
-        return self._decode(self.encode(x), None)
+        return self._decode(self._encode(x), None)
 
     def project(self, x: torch.Tensor) -> torch.Tensor:
         """Holden's use of the manifold: map (possibly corrupted) motion to the nearest
@@ -178,8 +190,8 @@ class ConvAutoencoder(nn.Module):
         are planted, their squared world velocity in the reconstructed pose moved along the
         window's own control, in the data's units through ``model.normalizer`` (which
         :func:`motionlab.training.train` sets). Logged as ``contact``."""
-        self._check(batch, "batch")
-        out = self(batch)
+        self._check(batch, "batch", finite=False)      # NaN: the training loop's guard stops the run
+        out = self._reconstruct(batch)
         reconstruction = F.mse_loss(out, batch)
         l1 = self.encoder.weight.abs().sum() + self.decoder.weight.abs().sum()
         terms = {"loss": reconstruction + self.config.l1 * l1, "mse": reconstruction}

@@ -434,8 +434,8 @@ class DFN(GenerativeModel, nn.Module):
 
     # -- checks --------------------------------------------------------------------------
 
-    def _check(self, x: torch.Tensor, name: str, min_frames: int = 1) -> None:
-        check_tensor(x, name, self.config.n_features, min_frames)
+    def _check(self, x: torch.Tensor, name: str, min_frames: int = 1, finite: bool = True) -> None:
+        check_tensor(x, name, self.config.n_features, min_frames, finite=finite)
 
     # -- stages --------------------------------------------------------------------------
 
@@ -653,7 +653,8 @@ class DFN(GenerativeModel, nn.Module):
 
     def loss(self, batch: torch.Tensor) -> dict[str, torch.Tensor]:
         """The loss of the current stage (:meth:`set_stage`) on windows ``(batch, frames, 66)``."""
-        self._check(batch, "batch", min_frames=self.config.horizon if self.stage != "frame" else 1)
+        self._check(batch, "batch", min_frames=self.config.horizon if self.stage != "frame" else 1,
+                    finite=False)                     # NaN: the training loop's guard stops the run
         return {"frame": self.frame_loss, "sequence": self.sequence_loss,
                 "dynamics": self.dynamics_loss}[self.stage](batch)
 

@@ -109,8 +109,8 @@ class MotionLSTM(GenerativeModel, nn.Module):
         self.lstm = nn.LSTM(inputs, config.hidden, config.layers, batch_first=True)
         self.readout = nn.Linear(config.hidden, outputs)
 
-    def _check(self, x: torch.Tensor, name: str, features: int, min_frames: int = 1) -> None:
-        check_tensor(x, name, features, min_frames)
+    def _check(self, x: torch.Tensor, name: str, features: int, min_frames: int = 1, finite: bool = True) -> None:
+        check_tensor(x, name, features, min_frames, finite=finite)
 
     def forward(self, frames: torch.Tensor, next_control: torch.Tensor | None = None,
                 state: tuple[torch.Tensor, torch.Tensor] | None = None):
@@ -139,7 +139,7 @@ class MotionLSTM(GenerativeModel, nn.Module):
         """Teacher-forced next-frame mean squared error (normalised units) on windows
         ``(batch, frames, n_features)``: the pose only for ``control="given"``, pose and
         control otherwise. Logged: ``pose_mse`` (and ``control_mse`` when predicted)."""
-        self._check(batch, "batch", self.config.n_features, min_frames=2)
+        self._check(batch, "batch", self.config.n_features, min_frames=2, finite=False)   # NaN: the loop's guard
         n_pose = self.config.n_pose
         inputs = batch[:, :-1]
         if self.training and self.config.input_noise > 0:

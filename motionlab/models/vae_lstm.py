@@ -266,8 +266,9 @@ class VAELSTM(GenerativeModel, nn.Module):
 
     # -- checks --------------------------------------------------------------------------
 
-    def _check(self, x: torch.Tensor, name: str, features: int | tuple[int, ...], min_frames: int = 1) -> None:
-        check_tensor(x, name, features, min_frames)
+    def _check(self, x: torch.Tensor, name: str, features: int | tuple[int, ...], min_frames: int = 1,
+               finite: bool = True) -> None:
+        check_tensor(x, name, features, min_frames, finite=finite)
 
     # -- the parts -----------------------------------------------------------------------
 
@@ -362,6 +363,10 @@ class VAELSTM(GenerativeModel, nn.Module):
         the posterior means instead of samples (a deterministic reconstruction).
         """
         self._check(x, "x", self.config.n_features)
+        return self._forward(x, sample)
+
+    def _forward(self, x: torch.Tensor, sample: bool = True) -> dict[str, torch.Tensor]:
+        # unchecked: forward() checks its input, loss() only its shape
         frames = x.shape[1]
         padded = pad_to_canvas(x)
         if self.training:
@@ -403,7 +408,8 @@ class VAELSTM(GenerativeModel, nn.Module):
         there: the training form, and the free-running one times ``free_running`` (the path
         that generates, and whose feet slide). Logged: ``contact`` and ``free_contact``.
         """
-        out = self(batch)
+        self._check(batch, "x", self.config.n_features, finite=False)   # NaN: the training loop's guard
+        out = self._forward(batch)
         frames = batch.shape[1]
         nll = self._neg_log_likelihood(out["reconstruction"], batch).sum(1) / frames     # L_x
         kl = gaussian.kl_divergence(out["mu"], out["log_var"]).sum(-1).sum(1) / frames    # L_z, eq. 4
