@@ -261,3 +261,24 @@ def test_rotation_decoder_is_the_default_and_cannot_stretch_bones(prepared):
         drift[decoder] = metrics.bone_length_drift(rep.to_positions(decoded, SMALL.fps))
         assert decoder == "positions" or metrics.pose_error(decoded, truth) < 0.6 * before    # it learned
     assert drift["rotations"] < 1e-5 < 1e-3 < drift["positions"]
+
+
+def test_the_decoders_forward_kinematics_is_the_librarys():
+    """DFN's torch layer and motionlab.rotations.forward_kinematics (numpy, every reader's)
+    place every joint alike, for any rotations: one definition of FK, written twice only
+    because one must carry gradients."""
+    from motionlab.models.dfn import ForwardKinematics
+    from motionlab.rotations import forward_kinematics
+    from motionlab.skeleton import LOCOMOTION
+    layer = ForwardKinematics()
+    generator = torch.Generator().manual_seed(0)
+    layer.offsets.copy_(0.2 * torch.randn(LOCOMOTION.n_joints, 3, generator=generator, dtype=torch.float64).float())
+    q, _ = torch.linalg.qr(torch.randn(5, len(layer.rotated), 3, 3, generator=generator, dtype=torch.float64))
+    hips = torch.randn(5, 3, generator=generator, dtype=torch.float64)
+    ours = layer.double()(q, hips)
+    local = np.tile(np.eye(3), (5, LOCOMOTION.n_joints, 1, 1))
+    local[:, layer.rotated] = q.numpy()
+    offsets = np.tile(layer.offsets.numpy(), (5, 1, 1))
+    offsets[:, 0] = hips.numpy()
+    _, theirs = forward_kinematics(np.asarray(LOCOMOTION.parents), local, offsets)
+    assert np.allclose(ours.numpy(), theirs, atol=1e-12)

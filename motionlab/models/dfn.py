@@ -44,6 +44,7 @@ from torch import nn
 
 from .. import checks
 from . import gaussian
+from ..rotations import parent_first
 from ..skeleton import LOCOMOTION
 from .base import Generated, GenerativeModel, check_tensor, eval_mode, generator_for
 from .modelcard import NO_CLIP, ModelCard, choice, paper
@@ -240,7 +241,8 @@ class ForwardKinematics(nn.Module):
     def forward(self, rotations: torch.Tensor, hips: torch.Tensor) -> torch.Tensor:
         local = dict(zip(self.rotated, rotations.unbind(-3)))
         turn, where = {}, {}
-        for j, parent in enumerate(self.parents):               # parents come before children
+        for j in parent_first(self.parents):                    # as rotations.forward_kinematics walks them
+            parent = self.parents[j]
             if parent < 0:
                 where[j] = hips
             else:
