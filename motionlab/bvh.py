@@ -34,6 +34,8 @@ from pathlib import Path
 import numpy as np
 
 from . import checks
+from .clip import CMU_UNIT_M, Clip
+from .skeleton import LOCOMOTION_JOINTS
 from .rotations import axis_rotation, forward_kinematics, matrix_to_euler_zyx, y_rotation
 
 POSITION_CHANNELS = ("Xposition", "Yposition", "Zposition")
@@ -403,6 +405,70 @@ def _parse_motion_lines(path: str, lines: list[str], first: int, columns: list[s
         if words:
             rows.append([float(word) for word in words])
     return np.array(rows, dtype=np.float64).reshape(len(rows), len(columns))
+
+
+# --------------------------------------------------------------------------- as a Clip
+
+def has_tpose_frame(clip: BVH) -> bool:
+    """Whether frame 0 is a hand-made T-pose, as cgspeed BVH files prepend.
+
+    That frame's rotations are whole degrees (mostly zero), unlike captured frames.
+    """
+    if clip.n_frames < 2:
+        return False
+    rotation_columns = [column.start + k
+                        for column, names in zip(clip.channel_columns(), clip.channels)
+                        for k, name in enumerate(names) if name.endswith("rotation")]
+    first = clip.motion[0, rotation_columns]
+    return bool(np.all(first == np.round(first)) and np.mean(first == 0) > 0.5)
+
+
+def locomotion_joints(clip: BVH) -> list[int]:
+    """Indices into ``clip.joint_names`` of the 21 locomotion joints, in locomotion order.
+
+    Joints are found by their CMU names (:data:`motionlab.skeleton.LOCOMOTION_JOINTS`); the hips are the
+    joint named ``Hips`` or, when there is none, the root joint whatever its name (some
+    exporters call it ``Root`` or ``pelvis``). Raises ``ValueError`` listing missing joints.
+    """
+    index = {name: j for j, name in enumerate(clip.joint_names)}
+    index.setdefault("Hips", int(np.flatnonzero(np.asarray(clip.parents) < 0)[0]))
+    missing = [n for n in LOCOMOTION_JOINTS if n not in index]
+    if missing:
+        raise ValueError(f"{clip.path}: not a CMU-style skeleton, missing joints {', '.join(missing)}")
+    return [index[n] for n in LOCOMOTION_JOINTS]
+
+
+def load_clip(path: str | Path, fps: float | None = None, unit_m: float = CMU_UNIT_M,
+             drop_tpose: bool | str = "auto") -> Clip:
+    """A BVH file with CMU joint names as a 21-joint :class:`~motionlab.clip.Clip`, as
+    :func:`motionlab.asfamc.load_clip` reads a CMU trial: every reader returns a Clip.
+
+    Args:
+        path: the ``.bvh`` file.
+        fps: resample to this frame rate (default: keep the file's).
+        unit_m: metres per file length unit (default: CMU units).
+        drop_tpose: drop frame 0 if it is a cgspeed T-pose; ``"auto"`` detects it
+            (:func:`has_tpose_frame`), ``True``/``False`` force it.
+
+    The root joint stands in for ``Hips`` when no joint has that name
+    (:func:`locomotion_joints`). A malformed file raises ``ValueError`` naming it.
+    """
+    path = Path(path)
+    if fps is not None:
+        fps = checks.rate(fps, "fps")
+    unit_m = checks.positive(unit_m, "unit_m")
+    if drop_tpose not in ("auto", True, False):
+        raise ValueError(f"drop_tpose: expected 'auto', True or False, got {drop_tpose!r}")
+    clip = read(path)
+    index = locomotion_joints(clip)
+    drop = has_tpose_frame(clip) if drop_tpose == "auto" else bool(drop_tpose)
+    if drop:
+        clip.motion = clip.motion[1:]
+    if clip.n_frames < 2:
+        raise ValueError(f"{path}: needs at least 2 frames of motion, has {clip.n_frames}")
+    positions = clip.world_positions()[:, index] * unit_m
+    result = Clip(path.stem, positions, clip.fps, str(path))
+    return result.resampled(fps) if fps is not None else result
 
 
 def write(path: str | Path, clip: BVH, decimals: int = 6) -> None:

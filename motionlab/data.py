@@ -24,7 +24,7 @@ import torch
 from . import asfamc, checks
 from . import files as files_
 from . import bvh as bvh_io
-from .clip import CMU_UNIT_M, Clip
+from .clip import CMU_UNIT_M, Clip  # noqa: F401  (CMU_UNIT_M: the unit, re-exported for data.load_bvh callers)
 from .representation import FACING_SMOOTHING_S, POSE, mirror_features, reverse_features, to_positions
 from .skeleton import LOCOMOTION, LOCOMOTION_JOINTS
 
@@ -34,65 +34,9 @@ MOTION_SUFFIXES = (".bvh", ".amc")
 """File types :func:`load` reads from a folder (in any letter case: ``.BVH`` too)."""
 
 
-def has_tpose_frame(clip: bvh_io.BVH) -> bool:
-    """Whether frame 0 is a hand-made T-pose, as cgspeed BVH files prepend.
-
-    That frame's rotations are whole degrees (mostly zero), unlike captured frames.
-    """
-    if clip.n_frames < 2:
-        return False
-    rotation_columns = [column.start + k
-                        for column, names in zip(clip.channel_columns(), clip.channels)
-                        for k, name in enumerate(names) if name.endswith("rotation")]
-    first = clip.motion[0, rotation_columns]
-    return bool(np.all(first == np.round(first)) and np.mean(first == 0) > 0.5)
-
-
-def locomotion_joints(clip: bvh_io.BVH) -> list[int]:
-    """Indices into ``clip.joint_names`` of the 21 locomotion joints, in locomotion order.
-
-    Joints are found by their CMU names (:data:`LOCOMOTION_FROM_CMU`); the hips are the
-    joint named ``Hips`` or, when there is none, the root joint whatever its name (some
-    exporters call it ``Root`` or ``pelvis``). Raises ``ValueError`` listing missing joints.
-    """
-    index = {name: j for j, name in enumerate(clip.joint_names)}
-    index.setdefault("Hips", int(np.flatnonzero(np.asarray(clip.parents) < 0)[0]))
-    missing = [n for n in LOCOMOTION_FROM_CMU if n not in index]
-    if missing:
-        raise ValueError(f"{clip.path}: not a CMU-style skeleton, missing joints {', '.join(missing)}")
-    return [index[n] for n in LOCOMOTION_FROM_CMU]
-
-
-def load_bvh(path: str | Path, fps: float | None = None, unit_m: float = CMU_UNIT_M,
-             drop_tpose: bool | str = "auto") -> Clip:
-    """Load a BVH file with CMU joint names as a 21-joint :class:`Clip`.
-
-    Args:
-        path: the ``.bvh`` file.
-        fps: resample to this frame rate (default: keep the file's).
-        unit_m: metres per file length unit (default: CMU units).
-        drop_tpose: drop frame 0 if it is a cgspeed T-pose; ``"auto"`` detects it
-            (:func:`has_tpose_frame`), ``True``/``False`` force it.
-
-    The root joint stands in for ``Hips`` when no joint has that name
-    (:func:`locomotion_joints`). A malformed file raises ``ValueError`` naming it.
-    """
-    path = Path(path)
-    if fps is not None:
-        fps = checks.rate(fps, "fps")
-    unit_m = checks.positive(unit_m, "unit_m")
-    if drop_tpose not in ("auto", True, False):
-        raise ValueError(f"drop_tpose: expected 'auto', True or False, got {drop_tpose!r}")
-    clip = bvh_io.read(path)
-    index = locomotion_joints(clip)
-    drop = has_tpose_frame(clip) if drop_tpose == "auto" else bool(drop_tpose)
-    if drop:
-        clip.motion = clip.motion[1:]
-    if clip.n_frames < 2:
-        raise ValueError(f"{path}: needs at least 2 frames of motion, has {clip.n_frames}")
-    positions = clip.world_positions()[:, index] * unit_m
-    result = Clip(path.stem, positions, clip.fps, str(path))
-    return result.resampled(fps) if fps is not None else result
+load_bvh = bvh_io.load_clip
+"""A CMU-style BVH file as a 21-joint :class:`Clip`: :func:`motionlab.bvh.load_clip`."""
+has_tpose_frame, locomotion_joints = bvh_io.has_tpose_frame, bvh_io.locomotion_joints
 
 
 def load(source: str | Path | Iterable[str | Path] = "synthetic", fps: float = 20.0,
@@ -240,7 +184,7 @@ def _load_file(path: Path, fps: float) -> Clip:
     if path.suffix.lower() == ".amc":
         return asfamc.load_clip(path, fps=fps)
     if path.suffix.lower() == ".bvh":
-        return load_bvh(path, fps=fps)
+        return bvh_io.load_clip(path, fps=fps)
     raise ValueError(f"{path}: unknown motion file type (expected .bvh or .amc)")
 
 
