@@ -77,6 +77,26 @@ def window_errors(pred_features: np.ndarray, true_features: np.ndarray, fps: flo
     return {"pose error (m)": pose_error(pred, true), "motion error (m)": motion_error(pred_world, true_world)}
 
 
+def control_drift(pred_features: np.ndarray, true_features: np.ndarray, fps: float) -> dict[str, float]:
+    """The part of the motion error each control channel causes, metres: for forward,
+    sideways and turning velocity in turn, the motion error of ``true_features`` with only
+    that channel taken from ``pred_features`` (the pose and the other two channels kept
+    true), so that all of it is the drift of the path that one channel's errors integrate
+    to. Windows ``(windows, frames, 66)`` in the data's units, as :func:`window_errors`.
+    Returns ``{"forward": m, "sideways": m, "turning": m}``."""
+    pred = checks.array(pred_features, "pred_features", ("windows", "frames", N_FEATURES), dtype=None)
+    true = checks.array(true_features, "true_features", ("windows", "frames", N_FEATURES), dtype=None)
+    _same_shape(pred, true, "pred_features, true_features", f"(windows, frames, {N_FEATURES})")
+    fps = checks.rate(fps, "fps")
+    true_world = np.stack([to_positions(w, fps) for w in true])
+    drift = {}
+    for k, name in enumerate(("forward", "sideways", "turning")):
+        mixed = np.array(true, dtype=np.float64)
+        mixed[..., N_POSE + k] = pred[..., N_POSE + k]
+        drift[name] = motion_error(np.stack([to_positions(w, fps) for w in mixed]), true_world)
+    return drift
+
+
 FOOT_PERCENTILE = 5.0
 """The percentile of a foot joint's height taken as its height when planted (see
 :func:`foot_rest_heights`): low enough to be a frame on the floor, high enough that one

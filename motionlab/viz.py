@@ -156,9 +156,15 @@ def plot_trajectory(positions: np.ndarray, fps: float, ax=None, arrow_every_s: f
     return ax
 
 
+PATH_COLORS = ("tab:green", "tab:purple", "tab:orange", "tab:brown", "tab:pink", "tab:olive")
+"""The colours of the clips' paths in :func:`animate`'s view from above (and of each panel's
+trail then), one per clip in order."""
+
+
 def animate(clips: np.ndarray | Sequence[np.ndarray], fps: float, titles: Sequence[str] | None = None,
             skeleton: Skeleton = LOCOMOTION, follow: bool = True, radius: float = 1.0,
-            step: int = 1, max_frames: int | None = None, size: float = 3.5) -> animation.FuncAnimation:
+            step: int = 1, max_frames: int | None = None, size: float = 3.5,
+            overview: bool = False) -> animation.FuncAnimation:
     """Animate one clip ``(frames, joints, 3)`` or several side by side (metres).
 
     Args:
@@ -172,6 +178,10 @@ def animate(clips: np.ndarray | Sequence[np.ndarray], fps: float, titles: Sequen
         step: show every ``step``-th frame (keeps notebooks small).
         max_frames: stop after this many frames of the clip (before ``step``).
         size: inches per panel.
+        overview: add a last panel that shows every clip's path (its hips) from above, in
+            one world frame, each in its colour of :data:`PATH_COLORS` with a dot where it is
+            at the frame shown: how far the clips drift apart, which cameras that follow
+            each character hide.
     """
     clips = [clips] if getattr(clips, "ndim", None) == 3 else list(clips)   # one clip: an array or a tensor
     if len(clips) == 0:
@@ -186,11 +196,12 @@ def animate(clips: np.ndarray | Sequence[np.ndarray], fps: float, titles: Sequen
     if max_frames is not None:
         n_frames = min(n_frames, checks.whole(max_frames, "max_frames"))
     frames = list(range(0, n_frames, step))
-    fig = plt.figure(figsize=(size * len(clips), size))
+    n_panels = len(clips) + bool(overview)
+    fig = plt.figure(figsize=(size * n_panels, size))
     colors = bone_colors(skeleton)
     panels = []
     for i, clip in enumerate(clips):
-        ax = fig.add_subplot(1, len(clips), i + 1, projection="3d")
+        ax = fig.add_subplot(1, n_panels, i + 1, projection="3d")
         # a title wider than its panel would be cut at both ends: wrap it to the panel
         _style_3d(ax, textwrap.fill(titles[i], max(12, int(10 * size))) if titles else None)
         grid = []
@@ -208,13 +219,31 @@ def animate(clips: np.ndarray | Sequence[np.ndarray], fps: float, titles: Sequen
             _equal_3d_limits(ax, center, r, height)
             _floor_grid(ax, center, r)
         lines = [ax.plot([], [], [], color=c, lw=2)[0] for c in colors]
-        trail = ax.plot([], [], [], color="tab:green", lw=1)[0]
+        path_color = PATH_COLORS[i % len(PATH_COLORS)] if overview else "tab:green"
+        trail = ax.plot([], [], [], color=path_color, lw=1)[0]
         panels.append({"ax": ax, "clip": clip, "lines": lines, "trail": trail, "grid": grid,
-                       "height": height})
+                       "height": height, "color": path_color})
     fig.tight_layout(rect=(0.02, 0.04, 0.95, 0.93))       # room for the tick labels and a time label
     # tight_layout leaves a placeholder layout engine behind, and with any engine set every
     # saved frame is drawn twice (once to lay it out): the layout is done, so drop it
     fig.set_layout_engine(None)
+    if overview:
+        # placed by hand in the last slot, after the layout of the 3-D panels: tight_layout
+        # would shrink those to make room for this panel's tick labels
+        left, width = (n_panels - 1 + 0.6 / size) / n_panels, (1 - 0.75 / size) / n_panels
+        top = fig.add_axes((left, 0.55 / size, width, 1 - 1.05 / size))
+        for i, p in enumerate(panels):
+            hips = p["clip"][:, 0]
+            top.plot(hips[:, 2], hips[:, 0], color=p["color"], lw=1, alpha=0.3)          # the whole path, faint
+            p["walked"] = top.plot([], [], color=p["color"], lw=2,
+                                   label=titles[i] if titles else f"clip {i}")[0]        # so far
+            p["here"] = top.plot([], [], "o", color=p["color"], ms=6)[0]
+        top.set_xlabel("z (m)")
+        top.set_ylabel("x (m)")
+        top.set_title("seen from above: the paths")
+        top.set_aspect("equal", adjustable="datalim")
+        top.grid(True, color="0.9")
+        top.legend(fontsize=8, loc="best")
 
     def draw(frame: int):
         artists = []
@@ -233,6 +262,10 @@ def animate(clips: np.ndarray | Sequence[np.ndarray], fps: float, titles: Sequen
                 path[np.abs(path[:, [0, 2]] - pose[0, [0, 2]]).max(axis=1) > radius] = np.nan
             p["trail"].set_data_3d(*_plot_xyz(path))
             artists += p["lines"] + [p["trail"]]
+            if overview:
+                p["walked"].set_data(clip[: t + 1, 0, 2], clip[: t + 1, 0, 0])
+                p["here"].set_data(clip[t:t + 1, 0, 2], clip[t:t + 1, 0, 0])
+                artists += [p["walked"], p["here"]]
         return artists
 
     anim = animation.FuncAnimation(fig, draw, frames=frames, interval=1000 * step / fps, blit=False)
@@ -426,15 +459,20 @@ def plot_history(history, keys: Sequence[str] = ("loss",), ax=None, log: bool = 
 def plot_conv_filters(weight, feature_names: Sequence[str], n: int = 6, fps: float | None = None):
     """The ``n`` strongest filters of a temporal convolution, ``weight`` ``(filters, features, width)``,
     as heat maps of feature (rows) against time offset (columns), each divided by its own
-    largest absolute weight (red positive, blue negative; one colour bar). Rows are labelled
-    once per joint (its x, y, z rows, between thin lines) and once per other feature.
+    largest absolute weight (red positive, blue negative; one colour bar). Filters are ranked
+    by the sum of their absolute weights, strongest first (left), and the figure's title
+    says so. Rows are labelled once per joint on the left (its rows between thin lines, and
+    each of them by its coordinate, ``x``, ``y`` or ``z``, on the right) and once per other
+    feature.
     Returns the figure."""
     weight = weight.detach().cpu() if hasattr(weight, "detach") else weight
     weight = checks.array(weight, "weight", ("filters", len(feature_names), "width"), dtype=None)
     n = checks.whole(n, "n")
     fps = None if fps is None else checks.rate(fps, "fps")
     order = np.argsort(-np.abs(weight).sum(axis=(1, 2)))[:n]
-    fig, axes = plt.subplots(1, len(order), figsize=(1.6 * len(order) + 2.5, 7), sharey=True)
+    # about 14 px a row at 100 dpi: each row can carry its own label, x, y or z
+    fig, axes = plt.subplots(1, len(order), figsize=(1.9 * len(order) + 3.5, 0.15 * len(feature_names) + 1.8),
+                             sharey=True)
     axes = np.atleast_1d(axes)
     width = weight.shape[2]
     offsets = np.arange(width) - width // 2
@@ -445,29 +483,38 @@ def plot_conv_filters(weight, feature_names: Sequence[str], n: int = 6, fps: flo
             groups[-1] = (base, groups[-1][1], row)
         else:
             groups.append((base, row, row))
-    for ax, index in zip(axes, order):
+    for rank, (ax, index) in enumerate(zip(axes, order)):
         w = weight[index] / max(np.abs(weight[index]).max(), 1e-12)
         image = ax.imshow(w, aspect="auto", cmap="RdBu_r", vmin=-1, vmax=1,
                           extent=(offsets[0] - 0.5, offsets[-1] + 0.5, len(feature_names) - 0.5, -0.5))
         for _, first, _ in groups[1:]:
-            ax.axhline(first - 0.5, color="0.6", lw=0.3)
-        ax.set_title(f"filter {index}", fontsize=9)
+            ax.axhline(first - 0.5, color="0.5", lw=0.5)
+        ax.set_title(f"#{rank + 1}: filter {index}", fontsize=11)
+        ax.tick_params(axis="x", labelsize=10)
     fig.supxlabel("time offset, frames" if fps is None else f"time offset, frames ({1000 / fps:.0f} ms each)",
-                  fontsize=9)
+                  fontsize=11)
+    fig.suptitle(f"the {len(order)} strongest filters (largest sum of |weight|), strongest first; "
+                 "each joint's three rows: its x, y, z", fontsize=12)
     axes[0].set_yticks([(first + last) / 2 for _, first, last in groups])
-    axes[0].set_yticklabels([name for name, _, _ in groups], fontsize=7)
+    axes[0].set_yticklabels([name for name, _, _ in groups], fontsize=10)
+    coordinates = axes[-1].secondary_yaxis("right")                  # each row's own label
+    coordinates.set_yticks(range(len(feature_names)),
+                           [name.split(".")[1] if "." in name else "" for name in feature_names], fontsize=9)
+    coordinates.tick_params(length=2, pad=1)
     fig.tight_layout()
-    fig.colorbar(image, ax=list(axes), shrink=0.6, pad=0.02, label="weight / the filter's largest |weight|")
+    fig.colorbar(image, ax=list(axes), shrink=0.6, pad=0.06, label="weight / the filter's largest |weight|")
     return fig
 
 
 def plot_filmstrip(motion: np.ndarray, ax=None, n: int = 6, spacing: float = 0.45,
-                   skeleton: Skeleton = LOCOMOTION, title: str | None = None):
+                   skeleton: Skeleton = LOCOMOTION, title: str | None = None,
+                   labels: Sequence[str] | None = None, fontsize: float = 8):
     """A motion as a strip of ``n`` poses, seen from the side, left to right in time.
 
     ``motion`` is features ``(frames, 3 * joints + 3)`` or root-local poses ``(frames,
     joints, 3)``: every pose is drawn in its own root frame (facing right), shifted by
-    ``spacing`` metres per step, so what moves is the body, not the path. The small
+    ``spacing`` metres per step, so what moves is the body, not the path. ``labels``: one
+    text per pose, written under it; ``fontsize``: of the title and the labels. The small
     multiples of notebook 03 are made of these. Returns the axes.
     """
     n_pose = 3 * skeleton.n_joints
@@ -476,6 +523,9 @@ def plot_filmstrip(motion: np.ndarray, ax=None, n: int = 6, spacing: float = 0.4
     if motion.ndim == 2:
         motion = motion[:, :n_pose].reshape(len(motion), skeleton.n_joints, 3)
     n = checks.whole(n, "n")
+    if labels is not None and len(labels) != n:
+        raise ValueError(f"labels: expected one per pose ({n}), got {len(labels)}")
+    fontsize = checks.positive(fontsize, "fontsize")
     if ax is None:
         ax = plt.figure(figsize=(0.8 * n + 0.5, 2.2)).add_subplot()
     frames = np.linspace(0, len(motion) - 1, n).round().astype(int)
@@ -484,13 +534,66 @@ def plot_filmstrip(motion: np.ndarray, ax=None, n: int = 6, spacing: float = 0.4
         for (parent, child), color in zip(skeleton.bones, bone_colors(skeleton)):
             ax.plot(pose[[parent, child], 2] + k * spacing, pose[[parent, child], 1], color=color, lw=1.2)
     ax.axhline(0, color="0.8", lw=0.8)
+    for k, label in enumerate(labels or []):
+        ax.text(motion[frames[k], 0, 2] + k * spacing, -0.05, label, ha="center", va="top", fontsize=fontsize)
     ax.set_aspect("equal")
     ax.set_xticks([]), ax.set_yticks([])
     for side in ("top", "right", "left", "bottom"):
         ax.spines[side].set_visible(False)
     if title:
-        ax.set_title(title, fontsize=8)
+        ax.set_title(title, fontsize=fontsize)
     return ax
+
+
+def plot_joints_compared(poses: dict, joints: Sequence[int], skeleton: Skeleton = LOCOMOTION,
+                         margin: float = 0.25, title: str | None = None):
+    """Root-frame poses ``{title: (joints, 3)}`` (metres) side by side, seen from the
+    body's left (facing left; the left side's bones nearest, drawn on top), zoomed onto
+    ``joints`` and the bones around them: the first pose is the reference, its ``joints``'
+    bones are drawn as a dashed grey ghost in every other panel, and each other panel's
+    title adds how far its ``joints`` lie from the reference's (mean distance, cm). The
+    bones that end in ``joints`` are drawn thick, ``margin`` metres of the body shown
+    around them; ``title`` goes above the panels. Returns the figure."""
+    if not isinstance(poses, dict) or len(poses) < 2:
+        raise ValueError(f"poses: expected a dict of at least two poses, got {type(poses).__name__}")
+    poses = {title: _check_poses(pose, skeleton, f"poses[{title!r}]")[0] for title, pose in poses.items()}
+    joints = [checks.whole(j, "joints", minimum=0) for j in joints]
+    if not joints or max(joints) >= skeleton.n_joints:
+        raise ValueError(f"joints: expected joint indices 0..{skeleton.n_joints - 1}, got {joints}")
+    margin = checks.positive(margin, "margin")
+    reference_title, reference = next(iter(poses.items()))
+    shown = sorted(set(joints) | {int(skeleton.parents[j]) for j in joints if skeleton.parents[j] >= 0})
+    points = np.concatenate([pose[shown][:, [2, 1]] for pose in poses.values()])       # side view: (z, y)
+    low, high = points.min(0) - margin, points.max(0) + margin
+    half = 0.5 * max(high - low)
+    center = 0.5 * (low + high)
+    fig, axes = plt.subplots(1, len(poses), figsize=(4.2 * len(poses), 4.6), sharex=True, sharey=True)
+    thick = {(int(skeleton.parents[j]), j) for j in joints}
+    for ax, (name, pose) in zip(axes, poses.items()):
+        if pose is not reference:
+            for parent, child in sorted(thick):
+                ax.plot(reference[[parent, child], 2], reference[[parent, child], 1], "--", color="0.55", lw=2.5,
+                        zorder=1.5, label=reference_title if (parent, child) == min(thick) else None)
+            off = 100 * np.linalg.norm(pose[joints] - reference[joints], axis=-1).mean()
+            name = f"{name}\n{off:.1f} cm from the {reference_title} (mean over {len(joints)} joints)"
+        for (parent, child), color in zip(skeleton.bones, bone_colors(skeleton)):
+            depth = {RIGHT_COLOR: 1, CENTER_COLOR: 2, LEFT_COLOR: 3}[color]     # the far side first
+            ax.plot(pose[[parent, child], 2], pose[[parent, child], 1], color=color,
+                    lw=4 if (parent, child) in thick else 1.5, zorder=depth, solid_capstyle="round")
+        ax.plot(pose[joints, 2], pose[joints, 1], "o", color="k", ms=4, zorder=4)
+        ax.set_title(name, fontsize=11)
+        ax.set_xlim(center[0] - half, center[0] + half)
+        ax.set_ylim(center[1] - half, center[1] + half)
+        ax.set_aspect("equal")
+        ax.set_xlabel("← z, forward (m)", fontsize=10)
+        ax.grid(True, color="0.92")
+    axes[0].invert_xaxis()                            # forward to the left: seen from the body's left, not mirrored
+    axes[0].set_ylabel("y, up (m)", fontsize=10)
+    axes[1].legend(fontsize=9, loc="lower right")
+    if title:
+        fig.suptitle(title, fontsize=12)
+    fig.tight_layout(rect=(0, 0, 1, 0.94 if title else 1))
+    return fig
 
 
 def plot_motion(features: np.ndarray, fps: float, fig=None, title: str | None = None, n: int = 8):
@@ -499,12 +602,13 @@ def plot_motion(features: np.ndarray, fps: float, fig=None, title: str | None = 
     from .representation import to_positions
     features = checks.array(features, "features", ("frames", N_FEATURES), dtype=None)
     fps = checks.rate(fps, "fps")
-    fig = fig or plt.figure(figsize=(10, 2.6))
+    fig = fig or plt.figure(figsize=(12, 3.8))        # bodies about 250 px tall at 100 dpi, titles readable
     grid = fig.add_gridspec(1, 4)
     side = "side view in the body's own frame (facing right); where it goes: the path"
-    plot_filmstrip(features, ax=fig.add_subplot(grid[0, :3]), n=n, title=f"{title}\n{side}" if title else side)
+    plot_filmstrip(features, ax=fig.add_subplot(grid[0, :3]), n=n, spacing=0.6, fontsize=11,
+                   title=f"{title}\n{side}" if title else side)
     plot_trajectory(to_positions(features, fps), fps, ax=fig.add_subplot(grid[0, 3])).set_title("path from above",
-                                                                                              fontsize=8)
+                                                                                              fontsize=11)
     fig.tight_layout()
     return fig
 

@@ -105,8 +105,10 @@ class ClipBrowser(_Panel):
 class LatentSliders(_Panel):
     """Sliders over chosen latent axes of a generative model (Motegi §V).
 
-    Each slider sets one axis as a cumulative probability of the prior N(0, 1), from 0.1
-    to 0.9 as in the paper, mapped through the inverse normal CDF; the other axes come from
+    Each slider sets one axis as a quantile level ``u`` of the prior N(0, 1) (the cumulative
+    probability up to its value), from 0.1 to 0.9 as in the paper, mapped through the
+    inverse normal CDF, ``z = Φ⁻¹(u)``; the still's title gives each axis's value and its
+    ``u`` (``z[4]=+0.00 (u=0.50)``). The other axes come from
     a random sample picked by ``sample``. When a slider moves, the decoded window plays as
     motion on the canvas of :class:`motionlab.live.ClipPlayer` (the kernel sends its frames
     once; the browser loops them) above :func:`viz.plot_motion` of it, the still figure.
@@ -137,7 +139,8 @@ class LatentSliders(_Panel):
 
     def latent_vector(self, probabilities: Sequence[float] | None = None,
                       sample: int | None = None) -> torch.Tensor:
-        """The latent ``(latent,)`` for slider values ``probabilities`` (default: the sliders')."""
+        """The latent ``(latent,)`` for slider values ``probabilities``, quantiles of the prior
+        (default: the sliders')."""
         probabilities = [s.value for s in self.sliders] if probabilities is None else list(probabilities)
         if len(probabilities) != len(self.axes):
             raise ValueError(f"probabilities: expected {len(self.axes)} values, got {len(probabilities)}")
@@ -150,7 +153,9 @@ class LatentSliders(_Panel):
         """``(features (frames, 66), title)`` decoded for these slider values."""
         z = self.latent_vector(probabilities, sample)
         motion = np.asarray(self.decode(z[None])[0])
-        values = ", ".join(f"z[{a}]={v:+.2f}" for a, v in zip(self.axes, z[self.axes].tolist()))
+        quantiles = [s.value for s in self.sliders] if probabilities is None else list(probabilities)
+        values = ", ".join(f"z[{a}]={v:+.2f} (u={u:.2f})"
+                           for a, v, u in zip(self.axes, z[self.axes].tolist(), quantiles))
         return motion, f"sample {self.sample.value if sample is None else sample}: {values}"
 
     def figure(self, probabilities: Sequence[float] | None = None, sample: int | None = None):

@@ -55,6 +55,7 @@ RATE_CALLS = [
     ("reverse_features", lambda fps: rep.reverse_features(FEATURES, fps), "fps"),
     ("foot_skating", lambda fps: metrics.foot_skating(WALK, fps), "fps"),
     ("window_errors", lambda fps: metrics.window_errors(WINDOWS, WINDOWS, fps), "fps"),
+    ("control_drift", lambda fps: metrics.control_drift(WINDOWS, WINDOWS, fps), "fps"),
     ("stepping_speed", lambda fps: metrics.stepping_speed(FEATURES, fps), "fps"),
     ("stepping_speed smoothed", lambda fps: metrics.stepping_speed(FEATURES, fps, smooth_s=0.1), "fps"),
     ("errors_by_frame", lambda fps: metrics.errors_by_frame(WINDOWS, WINDOWS, fps), "fps"),

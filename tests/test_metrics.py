@@ -19,6 +19,20 @@ def test_pose_and_motion_error_known_offsets(walk):
         metrics.motion_error(walk, walk[:-1])
 
 
+def test_control_drift_splits_the_motion_error_by_channel(walk):
+    f = np.stack([to_features(walk, 20)] * 2)
+    slower = f.copy()
+    slower[..., 63] -= 0.1                                      # forward 0.1 m/s too slow, nothing else
+    drift = metrics.control_drift(slower, f, 20)
+    assert set(drift) == {"forward", "sideways", "turning"}
+    assert drift["sideways"] == drift["turning"] == 0.0 < drift["forward"]
+    whole = metrics.window_errors(slower, f, 20)["motion error (m)"]
+    assert drift["forward"] == pytest.approx(whole)             # the one channel wrong: all of the drift
+    assert metrics.control_drift(f, f, 20) == {"forward": 0.0, "sideways": 0.0, "turning": 0.0}
+    with pytest.raises(ValueError, match="one shape"):
+        metrics.control_drift(f[:1], f, 20)
+
+
 def test_foot_skating_is_zero_for_planted_feet_and_grows_with_sliding():
     fps = 20.0
     planted = np.zeros((40, 21, 3))

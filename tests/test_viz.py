@@ -62,6 +62,40 @@ def test_animation_html_gif_and_frames(tmp_path):
         viz.animate([walk, run], fps=20, titles=["one"])
 
 
+def test_animation_overview_shows_every_path_from_above():
+    walk, curve = walker(frames=20), walker(frames=20, turn_rate=1.0)
+    anim = viz.animate([walk, curve], fps=20, titles=["walk", "curve"], step=5, overview=True)
+    top = anim._fig.axes[-1]
+    assert len(anim._fig.axes) == 3 and top.name == "rectilinear"          # two 3-D panels, then the view from above
+    assert [t.get_text() for t in top.get_legend().get_texts()] == ["walk", "curve"]
+    anim._func(10)
+    here = [line for line in top.lines if line.get_marker() == "o"]
+    assert [tuple(np.ravel(line.get_xydata())) for line in here] == \
+        [(walk[10, 0, 2], walk[10, 0, 0]), (curve[10, 0, 2], curve[10, 0, 0])]   # each hips' (z, x) at frame 10
+    plain = viz.animate([walk, curve], fps=20, step=5)
+    assert [ax.get_position().height for ax in plain._fig.axes] == \
+        pytest.approx([ax.get_position().height for ax in anim._fig.axes[:2]], rel=0.05)   # 3-D panels not shrunk
+    plt.close("all")
+
+
+def test_joints_compared_and_labelled_filmstrip():
+    walk = walker(frames=10)
+    moved = walk[5].copy()
+    moved[[15, 16]] += [0.0, 0.0, 0.1]                                        # left hand and finger 10 cm forward
+    fig = viz.plot_joints_compared({"original": walk[5], "moved": moved}, [15, 16], title="a hand")
+    assert "10.0 cm from the original" in fig.axes[1].get_title()
+    assert fig.axes[0].get_title() == "original" and fig._suptitle.get_text() == "a hand"
+    with pytest.raises(ValueError, match="poses: expected a dict"):
+        viz.plot_joints_compared({"one": walk[5]}, [15])
+    with pytest.raises(ValueError, match="joints"):
+        viz.plot_joints_compared({"original": walk[5], "moved": moved}, [21])
+    ax = viz.plot_filmstrip(walk, n=3, labels=["a", "b", "c"], fontsize=11, title="strip")
+    assert [t.get_text() for t in ax.texts] == ["a", "b", "c"] and ax.title.get_fontsize() == 11
+    with pytest.raises(ValueError, match="labels: expected one per pose"):
+        viz.plot_filmstrip(walk, n=3, labels=["a"])
+    plt.close("all")
+
+
 def test_control_and_frame_plots(tmp_path):
     from motionlab.representation import to_features
     walk = walker()

@@ -46,7 +46,7 @@ def test_latent_sliders_map_probabilities_and_render_headless(clips):
     assert len(decoded) == 2 and decoded[-1][0, 1] == pytest.approx(-0.8416, abs=1e-3)
     # decoded once per move, and the canvas got the window's frames to play (63 numbers each)
     assert len(sliders.player.clip) == len(clips[0].features()) and len(sliders.player.clip[0]) == 63
-    assert sliders.player.title.startswith("sample 0: z[1]=-0.84")
+    assert sliders.player.title.startswith("sample 0: z[1]=-0.84 (u=0.20), z[4]=+0.00 (u=0.50)")
     with pytest.raises(ValueError, match="axes"):
         widgets.LatentSliders(decode, latent=6, axes=[6], fps=20)
     with pytest.raises(ValueError, match="probabilities: expected 2 values"):
