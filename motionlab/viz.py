@@ -198,80 +198,93 @@ def animate(clips: np.ndarray | Sequence[np.ndarray], fps: float, titles: Sequen
     frames = list(range(0, n_frames, step))
     n_panels = len(clips) + bool(overview)
     fig = plt.figure(figsize=(size * n_panels, size))
-    colors = bone_colors(skeleton)
-    panels = []
-    for i, clip in enumerate(clips):
-        ax = fig.add_subplot(1, n_panels, i + 1, projection="3d")
-        # a title wider than its panel would be cut at both ends: wrap it to the panel
-        _style_3d(ax, textwrap.fill(titles[i], max(12, int(10 * size))) if titles else None)
-        grid = []
-        if follow:
-            # a moving camera's axes would show numbers that change every frame; without
-            # them (and their panes) a frame also draws about twice as fast. The floor grid
-            # moves under the character: its lines are made once, enough for any centre.
-            ax.set_axis_off()
-            grid = [ax.plot([], [], [], color=GRID_COLOR, lw=0.6, zorder=0)[0]
-                    for _ in range(2 * (int(2 * radius / GRID_SPACING_M) + 1))]
-        height = clip[..., 1].max() + 0.1
-        if not follow:
-            center = 0.5 * (clip[:, 0, [0, 2]].min(0) + clip[:, 0, [0, 2]].max(0))
-            r = 0.5 * max(np.ptp(clip[:, 0, 0]), np.ptp(clip[:, 0, 2])) + 1.0
-            _equal_3d_limits(ax, center, r, height)
-            _floor_grid(ax, center, r)
-        lines = [ax.plot([], [], [], color=c, lw=2)[0] for c in colors]
-        path_color = PATH_COLORS[i % len(PATH_COLORS)] if overview else "tab:green"
-        trail = ax.plot([], [], [], color=path_color, lw=1)[0]
-        panels.append({"ax": ax, "clip": clip, "lines": lines, "trail": trail, "grid": grid,
-                       "height": height, "color": path_color})
+    panels = [_character_panel(fig.add_subplot(1, n_panels, i + 1, projection="3d"), clip, skeleton, follow,
+                               radius, PATH_COLORS[i % len(PATH_COLORS)] if overview else "tab:green",
+                               textwrap.fill(titles[i], max(12, int(10 * size))) if titles else None)
+              for i, clip in enumerate(clips)]
     fig.tight_layout(rect=(0.02, 0.04, 0.95, 0.93))       # room for the tick labels and a time label
     # tight_layout leaves a placeholder layout engine behind, and with any engine set every
     # saved frame is drawn twice (once to lay it out): the layout is done, so drop it
     fig.set_layout_engine(None)
     if overview:
-        # placed by hand in the last slot, after the layout of the 3-D panels: tight_layout
-        # would shrink those to make room for this panel's tick labels
-        left, width = (n_panels - 1 + 0.6 / size) / n_panels, (1 - 0.75 / size) / n_panels
-        top = fig.add_axes((left, 0.55 / size, width, 1 - 1.05 / size))
-        for i, p in enumerate(panels):
-            hips = p["clip"][:, 0]
-            top.plot(hips[:, 2], hips[:, 0], color=p["color"], lw=1, alpha=0.3)          # the whole path, faint
-            p["walked"] = top.plot([], [], color=p["color"], lw=2,
-                                   label=titles[i] if titles else f"clip {i}")[0]        # so far
-            p["here"] = top.plot([], [], "o", color=p["color"], ms=6)[0]
-        top.set_xlabel("z (m)")
-        top.set_ylabel("x (m)")
-        top.set_title("seen from above: the paths")
-        top.set_aspect("equal", adjustable="datalim")
-        top.grid(True, color="0.9")
-        top.legend(fontsize=8, loc="best")
+        _overview_panel(fig, panels, n_panels, size, titles)
 
     def draw(frame: int):
-        artists = []
-        for p in panels:
-            clip, ax = p["clip"], p["ax"]
-            t = min(frame, len(clip) - 1)
-            pose = clip[t]
-            if follow:
-                center = pose[0, [0, 2]]
-                _move_floor_grid(p["grid"], center, radius)
-                _equal_3d_limits(ax, center, radius, p["height"])
-            for (parent, child), line in zip(skeleton.bones, p["lines"]):
-                line.set_data_3d(*_plot_xyz(pose[[parent, child]]))
-            path = clip[: t + 1, 0] * np.array([1.0, 0.0, 1.0])
-            if follow:                                 # the trail ends at the edge of the floor shown
-                path[np.abs(path[:, [0, 2]] - pose[0, [0, 2]]).max(axis=1) > radius] = np.nan
-            p["trail"].set_data_3d(*_plot_xyz(path))
-            artists += p["lines"] + [p["trail"]]
-            if overview:
-                p["walked"].set_data(clip[: t + 1, 0, 2], clip[: t + 1, 0, 0])
-                p["here"].set_data(clip[t:t + 1, 0, 2], clip[t:t + 1, 0, 0])
-                artists += [p["walked"], p["here"]]
-        return artists
+        return [artist for p in panels for artist in _draw_panel(p, frame, skeleton, follow, radius, overview)]
 
     anim = animation.FuncAnimation(fig, draw, frames=frames, interval=1000 * step / fps, blit=False)
     anim.motion_frames, anim.motion_fps = frames, fps          # for stills(): which frames, at what time
     plt.close(fig)
     return anim
+
+
+def _character_panel(ax, clip: np.ndarray, skeleton: Skeleton, follow: bool, radius: float, path_color,
+                     title: str | None) -> dict:
+    """One character's 3-D panel of :func:`animate`: its empty lines, trail and floor, as a dict
+    that :func:`_draw_panel` fills in frame by frame."""
+    _style_3d(ax, title)                # a title wider than its panel is wrapped to it by the caller
+    grid = []
+    if follow:
+        # a moving camera's axes would show numbers that change every frame; without
+        # them (and their panes) a frame also draws about twice as fast. The floor grid
+        # moves under the character: its lines are made once, enough for any centre.
+        ax.set_axis_off()
+        grid = [ax.plot([], [], [], color=GRID_COLOR, lw=0.6, zorder=0)[0]
+                for _ in range(2 * (int(2 * radius / GRID_SPACING_M) + 1))]
+    height = clip[..., 1].max() + 0.1
+    if not follow:
+        center = 0.5 * (clip[:, 0, [0, 2]].min(0) + clip[:, 0, [0, 2]].max(0))
+        r = 0.5 * max(np.ptp(clip[:, 0, 0]), np.ptp(clip[:, 0, 2])) + 1.0
+        _equal_3d_limits(ax, center, r, height)
+        _floor_grid(ax, center, r)
+    lines = [ax.plot([], [], [], color=c, lw=2)[0] for c in bone_colors(skeleton)]
+    trail = ax.plot([], [], [], color=path_color, lw=1)[0]
+    return {"ax": ax, "clip": clip, "lines": lines, "trail": trail, "grid": grid, "height": height,
+            "color": path_color}
+
+
+def _overview_panel(fig, panels: list[dict], n_panels: int, size: float, titles) -> None:
+    """:func:`animate`'s last panel: every clip's hips from above, in one world frame."""
+    # placed by hand in the last slot, after the layout of the 3-D panels: tight_layout
+    # would shrink those to make room for this panel's tick labels
+    left, width = (n_panels - 1 + 0.6 / size) / n_panels, (1 - 0.75 / size) / n_panels
+    top = fig.add_axes((left, 0.55 / size, width, 1 - 1.05 / size))
+    for i, p in enumerate(panels):
+        hips = p["clip"][:, 0]
+        top.plot(hips[:, 2], hips[:, 0], color=p["color"], lw=1, alpha=0.3)          # the whole path, faint
+        p["walked"] = top.plot([], [], color=p["color"], lw=2,
+                               label=titles[i] if titles else f"clip {i}")[0]        # so far
+        p["here"] = top.plot([], [], "o", color=p["color"], ms=6)[0]
+    top.set_xlabel("z (m)")
+    top.set_ylabel("x (m)")
+    top.set_title("seen from above: the paths")
+    top.set_aspect("equal", adjustable="datalim")
+    top.grid(True, color="0.9")
+    top.legend(fontsize=8, loc="best")
+
+
+def _draw_panel(p: dict, frame: int, skeleton: Skeleton, follow: bool, radius: float, overview: bool) -> list:
+    """Pose one panel of :func:`animate` at ``frame`` (a clip that has ended holds its last
+    frame); returns the artists it changed."""
+    clip, ax = p["clip"], p["ax"]
+    t = min(frame, len(clip) - 1)
+    pose = clip[t]
+    if follow:
+        center = pose[0, [0, 2]]
+        _move_floor_grid(p["grid"], center, radius)
+        _equal_3d_limits(ax, center, radius, p["height"])
+    for (parent, child), line in zip(skeleton.bones, p["lines"]):
+        line.set_data_3d(*_plot_xyz(pose[[parent, child]]))
+    path = clip[: t + 1, 0] * np.array([1.0, 0.0, 1.0])
+    if follow:                                 # the trail ends at the edge of the floor shown
+        path[np.abs(path[:, [0, 2]] - pose[0, [0, 2]]).max(axis=1) > radius] = np.nan
+    p["trail"].set_data_3d(*_plot_xyz(path))
+    artists = p["lines"] + [p["trail"]]
+    if overview:
+        p["walked"].set_data(clip[: t + 1, 0, 2], clip[: t + 1, 0, 0])
+        p["here"].set_data(clip[t:t + 1, 0, 2], clip[t:t + 1, 0, 0])
+        artists += [p["walked"], p["here"]]
+    return artists
 
 
 STILL_PANEL_PX = 320
