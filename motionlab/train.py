@@ -477,6 +477,8 @@ def main(argv: list[str] | None = None) -> training.History:
             if history.val:
                 summary += f", validation loss {history.last('loss'):.4f}"
             print(f"{summary}\nsaved {out}")
+        if joined:
+            torch.distributed.barrier()                # every process leaves together, after rank 0 saved
     finally:
         if joined:
             torch.distributed.destroy_process_group()

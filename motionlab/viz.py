@@ -751,6 +751,6 @@ def plot_live_run(run: dict, fps: float, n: int = 4, title: str | None = None):
     ax.set_title("seen from above")
     ax.legend(fontsize=7, loc="best")
     if title:
-        fig.suptitle(title, fontsize=10)
+        fig.suptitle(title, fontsize=15, fontweight="bold")   # the model: the largest text
     fig.tight_layout(rect=(0, 0, 1, 0.92 if title else 1))
     return fig
