@@ -135,7 +135,7 @@ LAYERS = {
                "engine.stream"},
     "training": {"training", "training.config", "training.schedule", "training.parallel", "training.state",
                  "training.loop", "checkpoints", "train", "pretrained", "recipes"},
-    "course": {"experiments", "comparison", "viz", "live", "widgets"},
+    "course": {"experiments", "comparison", "stickfigure", "animations", "viz", "live", "widgets"},
 }
 """The library from the bottom up: where each module stands. A new module goes in one."""
 
