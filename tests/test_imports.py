@@ -127,7 +127,7 @@ def test_rotations_depend_on_nothing_else_in_the_library():
 LAYERS = {
     "core": {"checks", "rotations", "skeleton", "files", "text", "cpu", "progress", "filters", "colab",
              "cmu_locomotion", "models.gaussian", "models.modelcard"},
-    "motion": {"representation", "clip", "metrics", "contact_detection", "contacts", "synthetic", "claims"},
+    "motion": {"representation", "clip", "metrics", "contact_detection", "contacts", "gait", "synthetic", "claims"},
     "readers": {"asf", "amc", "asfamc", "bvh", "download"},
     "data sets": {"data"},
     "models": {"models", "models.base", "models.flows", "models.conv_ae", "models.vae", "models.vae_lstm",
