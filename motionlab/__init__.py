@@ -12,7 +12,7 @@ import importlib
 
 __version__ = "0.1.0"
 
-__all__ = ["amc", "animations", "asf", "asfamc", "bvh", "checkpoints", "checks", "claims", "clip",
+__all__ = ["amc", "animations", "asf", "asfamc", "bvh", "bvh_file", "checkpoints", "checks", "claims", "clip",
            "cmu_locomotion", "colab", "comparison", "contact_detection", "contacts", "cpu", "data", "download", "engine",
            "experiments", "files", "filters", "gait", "live", "metrics", "models", "pretrained", "progress",
            "recipes", "representation", "rotations", "skeleton", "stickfigure", "synthetic", "text",

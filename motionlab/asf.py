@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .bvh import read_text_lines
+from .bvh_file import read_text_lines
 from .rotations import euler_to_matrix
 
 ROTATION_DOFS = ("rx", "ry", "rz")
