@@ -128,7 +128,7 @@ LAYERS = {
     "core": {"checks", "rotations", "skeleton", "files", "text", "cpu", "progress", "filters", "colab",
              "cmu_locomotion", "models.gaussian", "models.modelcard"},
     "motion": {"representation", "clip", "metrics", "contact_detection", "contacts", "gait", "synthetic", "claims"},
-    "readers": {"asf", "amc", "asfamc", "bvh_file", "bvh", "download"},
+    "readers": {"asf", "amc", "asfamc", "bvh_file", "bvh", "download_checks", "download_http", "download"},
     "data sets": {"data"},
     "models": {"models", "models.base", "models.flows", "models.conv_ae", "models.vae", "models.vae_lstm",
                "models.lstm", "models.glow", "models.moglow", "models.dfn", "engine", "engine.recurrent",
