@@ -108,6 +108,17 @@ def _swing(rest: np.ndarray, current: np.ndarray) -> np.ndarray:
     return out
 
 
+def _bone_rotation(in_body: np.ndarray, parent: int, child: int) -> tuple[np.ndarray, np.ndarray]:
+    """The bone from ``parent`` to ``child`` of positions ``(frames, joints, 3)`` with the heading
+    removed: its rest offset (frame 0's direction, the mean length) and its rotation per frame
+    from there (:func:`_swing`)."""
+    vector = in_body[:, child] - in_body[:, parent]
+    length = np.linalg.norm(vector, axis=-1)
+    rest = vector[0] / max(length[0], 1e-12)
+    current = vector / np.maximum(length, 1e-12)[:, None]
+    return rest * length.mean(), _swing(rest, current)
+
+
 END_SITE_M = 0.05
 """How far :func:`from_positions` puts each leaf's End Site beyond the leaf joint, metres."""
 
@@ -144,13 +155,6 @@ def from_positions(positions: np.ndarray, fps: float, skeleton=None, unit_m: flo
 
     names, parents, offsets, body_rot = [], [], [], []
 
-    def bone_rotation(parent: int, child: int) -> tuple[np.ndarray, np.ndarray]:
-        vector = in_body[:, child] - in_body[:, parent]
-        length = np.linalg.norm(vector, axis=-1)
-        rest = vector[0] / max(length[0], 1e-12)
-        current = vector / np.maximum(length, 1e-12)[:, None]
-        return rest * length.mean(), _swing(rest, current)
-
     def add(name: str, parent: int, offset: np.ndarray, rotation: np.ndarray) -> int:
         names.append(name)
         parents.append(parent)
@@ -165,7 +169,7 @@ def from_positions(positions: np.ndarray, fps: float, skeleton=None, unit_m: flo
         """Add ``joint`` under ``file_parent``; ``incoming``: the rotation of the bone ending here."""
         kids = children[joint]
         if len(kids) == 1:
-            kid_offset, rotation = bone_rotation(joint, kids[0])
+            kid_offset, rotation = _bone_rotation(in_body, joint, kids[0])
         elif not kids:
             rotation = incoming           # a leaf turns with its bone, so its End Site extends it
         else:
@@ -178,7 +182,7 @@ def from_positions(positions: np.ndarray, fps: float, skeleton=None, unit_m: flo
             visit(kids[0], index, kid_offset, None, rotation)
         else:
             for kid in kids:
-                kid_offset, kid_rotation = bone_rotation(joint, kid)
+                kid_offset, kid_rotation = _bone_rotation(in_body, joint, kid)
                 helper = add(f"{skeleton.names[kid]}_base", index, np.zeros(3), kid_rotation)
                 visit(kid, helper, kid_offset, None, kid_rotation)
 
