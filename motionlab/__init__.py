@@ -12,11 +12,12 @@ import importlib
 
 __version__ = "0.1.0"
 
-__all__ = ["asfamc", "bvh", "checkpoints", "checks", "claims", "clip", "cmu_locomotion", "colab",
-           "comparison", "contacts", "cpu", "data", "download", "engine", "experiments", "files",
-           "filters", "live", "metrics", "models", "pretrained", "progress", "recipes",
-           "representation", "rotations", "skeleton", "synthetic", "text", "train", "training",
-           "viz", "widgets"]
+__all__ = ["amc", "animations", "asf", "asfamc", "bvh", "bvh_file", "checkpoints", "checks", "claims",
+           "clip", "cmu_locomotion", "colab", "comparison", "contact_detection", "contacts", "cpu",
+           "data", "download", "download_checks", "download_http", "engine", "experiments", "files",
+           "filters", "gait", "live", "metrics", "models", "pretrained", "progress", "recipes",
+           "representation", "rotations", "skeleton", "stickfigure", "synthetic", "text", "train",
+           "training", "viz", "widgets"]
 """Every module and subpackage of the library (tests/test_package.py keeps it complete)."""
 
 

@@ -127,15 +127,15 @@ def test_rotations_depend_on_nothing_else_in_the_library():
 LAYERS = {
     "core": {"checks", "rotations", "skeleton", "files", "text", "cpu", "progress", "filters", "colab",
              "cmu_locomotion", "models.gaussian", "models.modelcard"},
-    "motion": {"representation", "clip", "metrics", "contacts", "synthetic", "claims"},
-    "readers": {"asfamc", "bvh", "download"},
+    "motion": {"representation", "clip", "metrics", "contact_detection", "contacts", "gait", "synthetic", "claims"},
+    "readers": {"asf", "amc", "asfamc", "bvh_file", "bvh", "download_checks", "download_http", "download"},
     "data sets": {"data"},
     "models": {"models", "models.base", "models.flows", "models.conv_ae", "models.vae", "models.vae_lstm",
-               "models.lstm", "models.glow", "models.moglow", "models.dfn", "engine", "engine.recurrent",
+               "models.lstm", "models.glow", "models.moglow", "models.dfn_parts", "models.dfn", "engine", "engine.recurrent",
                "engine.stream"},
     "training": {"training", "training.config", "training.schedule", "training.parallel", "training.state",
                  "training.loop", "checkpoints", "train", "pretrained", "recipes"},
-    "course": {"experiments", "comparison", "viz", "live", "widgets"},
+    "course": {"experiments", "comparison", "stickfigure", "animations", "viz", "live", "widgets"},
 }
 """The library from the bottom up: where each module stands. A new module goes in one."""
 

@@ -169,18 +169,7 @@ class MoGlowStream:
         order = torch.cat([torch.arange(0, 2 * hidden), torch.arange(3 * hidden, 4 * hidden),
                            torch.arange(2 * hidden, 3 * hidden)]).to(device)
         sigma_2 = math.exp(_LOG_SIGMOID_SHIFT)                            # σ(2)
-        # scratch shared by every layer: the product, the gates (float32) and views of them,
-        # tanh(c), and the last layer's h in float32 for the output layer
-        self._product_out = new(batch, gates, dtype=self.weights)
-        self._gates = new(batch, gates)
-        self._sigmoid_gates, self._cell_gate = self._gates[:, :3 * hidden], self._gates[:, 3 * hidden:]
-        self._input_gate, self._forget_gate, self._output_gate = self._gates[:, :3 * hidden].split(hidden, dim=1)
-        self._tanh_cell, self._last_hidden = new(batch, hidden), new(batch, hidden)
-        # the poses between steps (float32): z in, the coupling's output, then the next z;
-        # every step splits them alike (n_lo, n_hi)
-        self._z, self._coupled = new(batch, model.n_modelled), new(batch, model.n_modelled)
-        n_lo = model.flow.blocks[0].coupling.n_lo
-        self._halves = (self._z[:, :n_lo], self._z[:, n_lo:], self._coupled[:, :n_lo], self._coupled[:, n_lo:])
+        self._scratch(device)
         # the conditioning's part of every coupling's first-layer gates, one frame's worth
         self._cond_product = new(batch, n_steps * gates, dtype=self.weights)
         self._cond_gates = new(batch, n_steps * gates)
@@ -225,6 +214,25 @@ class MoGlowStream:
         chunk = gates if batch > 1 and device.type == "cpu" else n_steps * gates
         self._cond_chunks = [(self._cond_operand[:, start:start + chunk], self._cond_product[:, start:start + chunk])
                              for start in range(0, n_steps * gates, chunk)]
+
+    def _scratch(self, device: torch.device) -> None:
+        """The buffers every frame reuses, made once by :meth:`_precompute`: the gates and
+        views of them, the cell's tanh, and the poses between the flow's steps."""
+        model, batch, hidden = self.model, self.batch, self.model.config.hidden
+        gates = 4 * hidden
+        new = partial(torch.zeros, device=device)
+        # scratch shared by every layer: the product, the gates (float32) and views of them,
+        # tanh(c), and the last layer's h in float32 for the output layer
+        self._product_out = new(batch, gates, dtype=self.weights)
+        self._gates = new(batch, gates)
+        self._sigmoid_gates, self._cell_gate = self._gates[:, :3 * hidden], self._gates[:, 3 * hidden:]
+        self._input_gate, self._forget_gate, self._output_gate = self._gates[:, :3 * hidden].split(hidden, dim=1)
+        self._tanh_cell, self._last_hidden = new(batch, hidden), new(batch, hidden)
+        # the poses between steps (float32): z in, the coupling's output, then the next z;
+        # every step splits them alike (n_lo, n_hi)
+        self._z, self._coupled = new(batch, model.n_modelled), new(batch, model.n_modelled)
+        n_lo = model.flow.blocks[0].coupling.n_lo
+        self._halves = (self._z[:, :n_lo], self._z[:, n_lo:], self._coupled[:, :n_lo], self._coupled[:, n_lo:])
 
     def _coupling_network(self, coupling: _StreamCoupling) -> None:
         """One coupling's network on this frame's ``b_lo`` (already in its buffer): the LSTM
