@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import argparse
 
-import numpy as np
 
 from motionlab import claims, comparison, contacts, experiments, metrics, pretrained, training
 from motionlab.representation import to_positions

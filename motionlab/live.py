@@ -383,7 +383,7 @@ _PANELS: "weakref.WeakSet[SteeringPanel]" = weakref.WeakSet()
 
 
 def _bones() -> list:
-    from .viz import bone_colors
+    from .stickfigure import bone_colors
     return [[int(p), int(c), color] for (p, c), color in zip(LOCOMOTION.bones, bone_colors())]
 
 

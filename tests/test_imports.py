@@ -88,7 +88,7 @@ def test_no_import_cycles():
     assert find_cycle(GRAPH) == []
 
 
-@pytest.mark.parametrize("reader", ["asfamc", "bvh", "clip"])
+@pytest.mark.parametrize("reader", ["asf", "amc", "asfamc", "bvh_file", "bvh", "clip", "download", "download_checks", "download_http"])
 def test_readers_never_import_the_loader(reader):
     assert "data" not in GRAPH[reader]
 

@@ -9,7 +9,6 @@ import time
 
 import numpy as np
 import pytest
-import torch
 
 from motionlab import claims, experiments, live, metrics, pretrained, synthetic
 from motionlab.representation import to_features
