@@ -158,7 +158,9 @@ class Lab:
     def start_panel(self):
         """Press the live panel's start button and click its picture (which arms its keys), as
         a student would; returns the panel's element once its first frames have come."""
-        box = self.driver.find_element("css selector", ".motionlab-live")
+        # the kernel is idle before the widget's view is drawn: wait for the panel itself
+        box = self.wait_for(lambda d: (d.find_elements("css selector", ".motionlab-live") or [None])[0],
+                            "the live panel to be drawn")
         box.find_element("xpath", ".//button[contains(., 'start')]").click()
         box.find_element("css selector", "canvas").click()
         time.sleep(1.0)

@@ -29,6 +29,7 @@ MEASURE = """from motionlab import claims, experiments
 print(claims.follows_keys(panel.steered(), experiments.preset_walks("walk", 4.0, 20.0, n=4), 20.0))"""
 THREADS = "import threading\nprint('live threads:', sum(t.name == 'motionlab-live' for t in threading.enumerate()))"
 RECORD = "return document.querySelector('.motionlab-live').motionlab.arrivals.length"
+SHOWN = "return document.querySelector('.motionlab-live').motionlab.shown.length"   # drawn by the playout buffer
 
 
 def notebook7() -> bool:
@@ -51,12 +52,13 @@ def test_a_student_steers_the_character(app):
         lab.keys(up=["ARROW_LEFT"])
         time.sleep(1.5)
         lab.keys(up=["ARROW_UP"])
-        before = d.execute_script(RECORD)
+        before, shown = d.execute_script(RECORD), d.execute_script(SHOWN)
         lab.run_cell(1)                           # another cell, while the character streams
         lab.wait_idle()
         assert "another cell ran: True" in lab.outputs(1)
         time.sleep(2.0)
         assert d.execute_script(RECORD) > before + 20       # frames kept coming
+        assert d.execute_script(SHOWN) > shown + 20         # and were drawn
         lab.run_cell(2)                           # what the keys made
         lab.wait_idle()
         report = lab.outputs(2)

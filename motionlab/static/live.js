@@ -158,9 +158,10 @@ function render({ model, el: root }) {
   box.appendChild(bar);
   const pad = el("div"); pad.style.cssText = "display: grid; grid-template-columns: repeat(3, 52px); gap: 4px; user-select: none;";
   const held = new Set();
-  // what the browser received, for benchmarks/live.py --browser: arrival times of frames and
-  // the delay from each key change to the first frame generated after the kernel saw it
-  const record = { arrivals: [], latencies: [], pending: null, seq: 0 };
+  // what the browser received and showed, for benchmarks/live.py --browser: arrival and paint
+  // times of frames, and the delay from each key change to the first frame shown that the
+  // kernel generated after it saw the change
+  const record = { arrivals: [], shown: [], latencies: [], pending: null, seq: 0 };
   box.motionlab = record;
   const send = () => {
     record.seq += 1;
@@ -222,30 +223,68 @@ function render({ model, el: root }) {
   listen(window, "blur", () => { if (held.size) { held.clear(); send(); } });   // keyups would be lost
   listen(canvas, "pointerdown", () => arm(true));
 
+  // A playout buffer, as video calls have: frames leave the kernel every 1/fps s but reach the
+  // page unevenly (the websocket, the browser's event loop). Frame j of a run is shown at
+  // base + j / fps + DELAY, where base is the earliest any of the last WINDOW frames arrived
+  // on that clock: a frame late by less than DELAY still shows on time, one later shows as it
+  // arrives and the frames after it catch up over a few ticks, and the clock follows the
+  // kernel's when it slows. Frames more than BACKLOG behind are skipped (never drawn), so the
+  // picture never lags further; a pause starts a new run.
+  const DELAY = 20, WINDOW = 40, BACKLOG = 3;
+  const queue = [], offsets = [];
+  let j = 0, last = -Infinity, shownAt = -Infinity;
+  const apply = (msg) => {
+    frame = msg.p;
+    overlay.contacts = msg.c;
+    overlay.clamped = Boolean(msg.x);
+    state.path.push([msg.p[0], msg.p[2]]);
+    if (state.path.length > 600) state.path.shift();
+    if (msg.fp) { state.footprints.push(msg.fp); if (state.footprints.length > 40) state.footprints.shift(); }
+    if (msg.stats) {
+      const s = msg.stats, f = (x, d = 1) => (x === null || x === undefined ? "-" : Number(x).toFixed(d));
+      overlay.lines = [`${f(s.fps)} frames/s delivered · ${f(s["ms per frame"], 2)} ms per frame generated`,
+                       `frame interval p50 ${f(s["interval p50 (ms)"], 0)} ms, p99 ${f(s["interval p99 (ms)"], 0)} ms · ` +
+                       `key to frame ${f(overlay.latency, 0)} ms`];
+    }
+  };
+  const show = (msg, now) => {          // drawn: what a student sees, and what the benchmark times
+    record.shown.push(now);
+    if (record.shown.length > 20000) record.shown.splice(0, 10000);
+    if (record.pending && msg.k >= record.pending.seq) {
+      record.latencies.push(now - record.pending.at);
+      overlay.latency = now - record.pending.at;
+      record.pending = null;
+    }
+    apply(msg);
+    paint();
+  };
+  const playout = () => {
+    raf = 0;
+    if (!alive) return;
+    const now = performance.now(), period = 1000 / model.get("fps");
+    while (queue.length > BACKLOG) apply(queue.shift());
+    // at the display tick nearest its time; after a late frame, catch up over a few frames
+    if (queue.length && now >= queue[0].due - 8 && now - shownAt >= 0.6 * period) {
+      shownAt = now;
+      show(queue.shift(), now);
+    }
+    if (queue.length) raf = requestAnimationFrame(playout);
+  };
   const onMessage = (msg) => {
     if (msg.kind === "frame") {
-      const now = performance.now();
+      const now = performance.now(), period = 1000 / model.get("fps");
       record.arrivals.push(now);
       if (record.arrivals.length > 20000) record.arrivals.splice(0, 10000);
-      if (record.pending && msg.k >= record.pending.seq) {
-        record.latencies.push(now - record.pending.at);
-        overlay.latency = now - record.pending.at;
-        record.pending = null;
-      }
-      frame = msg.p;
-      overlay.contacts = msg.c;
-      overlay.clamped = Boolean(msg.x);
-      state.path.push([msg.p[0], msg.p[2]]);
-      if (state.path.length > 600) state.path.shift();
-      if (msg.fp) { state.footprints.push(msg.fp); if (state.footprints.length > 40) state.footprints.shift(); }
-      if (msg.stats) {
-        const s = msg.stats, f = (x, d = 1) => (x === null || x === undefined ? "-" : Number(x).toFixed(d));
-        overlay.lines = [`${f(s.fps)} frames/s delivered · ${f(s["ms per frame"], 2)} ms per frame generated`,
-                         `frame interval p50 ${f(s["interval p50 (ms)"], 0)} ms, p99 ${f(s["interval p99 (ms)"], 0)} ms · ` +
-                         `key to frame ${f(overlay.latency, 0)} ms`];
-      }
-      if (!raf) raf = requestAnimationFrame(() => { raf = 0; paint(); });
+      if (now - last > 5 * period) { j = 0; offsets.length = 0; }   // the first frame, or after a pause
+      last = now;
+      offsets.push(now - j * period);
+      if (offsets.length > WINDOW) offsets.shift();
+      msg.due = Math.min(...offsets) + j * period + DELAY;
+      j += 1;
+      queue.push(msg);
+      if (!raf) raf = requestAnimationFrame(playout);
     } else if (msg.kind === "reset") {
+      queue.length = 0; offsets.length = 0; j = 0;
       state.path = []; state.footprints = []; state.target = null;
     } else if (msg.kind === "error") {
       overlay.error = msg.message;
