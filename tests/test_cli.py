@@ -1,4 +1,5 @@
 """The command line trains every model (one step, tiny sizes) and --paper applies the paper's schedule."""
+import importlib.util
 import sys
 import textwrap
 
@@ -239,18 +240,22 @@ TINY_MODEL = """
 """
 
 
-def test_adding_a_model_is_its_file_plus_one_line(tmp_path, monkeypatch):
-    """A new model file in motionlab/models and its name in FILES: the command line trains it
-    (with --paper too) and its checkpoint loads, with nothing else changed."""
+def test_adding_a_model_is_its_file_plus_its_name_twice(tmp_path, monkeypatch):
+    """A new model file in motionlab/models, imported by motionlab/models/__init__.py and named
+    in FILES: the command line trains it (with --paper too) and its checkpoint loads, with
+    nothing else changed."""
     folder = tmp_path / "more_models"
     folder.mkdir()
     (folder / "mean_pose.py").write_text(textwrap.dedent(TINY_MODEL))
-    monkeypatch.setattr(models, "__path__", [*models.__path__, str(folder)])
-    monkeypatch.setattr(models, "FILES", (*models.FILES, "mean_pose"))          # the one line
-    monkeypatch.delitem(sys.modules, "motionlab.models.mean_pose", raising=False)
+    # the file, as `from . import ..., mean_pose` in motionlab/models/__init__.py would import it
+    spec = importlib.util.spec_from_file_location("motionlab.models.mean_pose", folder / "mean_pose.py")
+    module = importlib.util.module_from_spec(spec)
+    monkeypatch.setitem(sys.modules, spec.name, module)
+    spec.loader.exec_module(module)
+    monkeypatch.setattr(models, "mean_pose", module, raising=False)              # the import line
+    monkeypatch.setattr(models, "FILES", (*models.FILES, "mean_pose"))          # and its name
     out = tmp_path / "mean_pose.pt"
     history = cli.main(["mean_pose", *QUICK, "--paper", "--out", str(out)])
     assert len(history.train) == 1
     checkpoint = training.load_checkpoint(out)
     assert type(checkpoint.model).__name__ == "MeanPose" and checkpoint.model.config.window == 8
-    monkeypatch.delitem(sys.modules, "motionlab.models.mean_pose", raising=False)

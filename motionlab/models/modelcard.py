@@ -6,7 +6,8 @@ where the paper is silent, with the reason), how its training clips are augmente
 a model trained stage by stage, its stages. :func:`motionlab.models.card` reads it;
 the command line (:mod:`motionlab.train`) and the checkpoint registry
 (:func:`motionlab.training.registered_models`) are built from the cards, so adding a model
-is its file plus its name in :data:`motionlab.models.FILES`.
+is its file plus its name in ``motionlab/models/__init__.py``: in the line that imports the
+model files and in :data:`motionlab.models.FILES`.
 """
 from __future__ import annotations
 
