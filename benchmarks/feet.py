@@ -117,8 +117,9 @@ def section_2(kept: dict) -> None:
         print(f"| {label}, {path}, τ = {t:g} | {raw:.3f} | {new:.3f} | {new - raw:+.4f} | {moved} |")
     print(f"\nthresholds: contact within {', '.join(f'{100 * h:g}' for h in contacts.CONTACT_HEIGHT_M[:2])} cm "
           f"(ankle, toe) of the planted height, slower than {contacts.CONTACT_SPEED_MS:g} m/s or "
-          f"{contacts.BODY_FRACTION:g} x the hips' speed; released above {contacts.RELEASE:g} x either; "
-          f"blend in {contacts.BLEND_S:g} s, out {contacts.RELEASE_S:g} s")
+          f"{contacts.BODY_FRACTION:g} x the hips' speed; released above "
+          f"{contacts.RELEASE:g} x either; blend in {contacts.BLEND_S:g} s, out {contacts.RELEASE_S:g} s; "
+          f"a low foot slowed into its landing spot over the last {contacts.APPROACH_S:g} s (offline)")
     features, floor = next(iter(kept.values()))
     frames = to_positions(features[:1], FPS)[0]
     lock = contacts.FootLock(FPS, planted_height_m=floor)

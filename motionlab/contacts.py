@@ -19,7 +19,8 @@ Three functions, one per step, on world positions ``(..., frames, 21, 3)`` in me
   stays where it landed, on the floor; the leg reaches it by analytic two-bone IK (hip
   fixed, bone lengths the motion's own, knee in the plane it bent in); the lock lets go
   when the contact ends or the foot runs out of the leg's reach, and both transitions blend
-  over :data:`BLEND_S` (no pops). Nothing above the hips moves;
+  over :data:`BLEND_S` (no pops). Knowing the whole clip, it also slows a low foot into
+  the spot where it will land (:func:`approach_shift`). Nothing above the hips moves;
 * :func:`fit_bones`: every bone back to one length (the motion's median or the data's),
   each bone's direction kept.
 
@@ -43,10 +44,11 @@ from .filters import smoothstep
 from .representation import along_path, to_positions
 from .skeleton import FEET, LOCOMOTION, Skeleton
 
-__all__ = ["BLEND_S", "BODY_FRACTION", "CLEAN_S", "CONTACT_HEIGHT_M", "CONTACT_SPEED_MS", "FEET", "FOLLOW", "LEGS",
-           "LOW_FADE", "PIVOT_BEND", "PLANTED_HEIGHT_M", "REACH_SLACK_M", "RELEASE", "RELEASE_S", "FootLock",
-           "Finished", "Locked", "contact_labels", "contact_velocity_loss", "detect", "finish", "fit_bones",
-           "foot_velocity", "lock", "lock_feet", "planted_heights", "planted_speed", "two_bone_ik"]
+__all__ = ["APPROACH_HEIGHT", "APPROACH_S", "BLEND_S", "BODY_FRACTION", "CLEAN_S", "CONTACT_HEIGHT_M", "CONTACT_SPEED_MS", "FEET",
+           "FOLLOW", "LEGS", "LOW_FADE", "PIVOT_BEND", "PLANTED_HEIGHT_M", "REACH_SLACK_M",
+           "RELEASE", "RELEASE_S", "FootLock", "Finished", "Locked", "approach_shift", "contact_labels",
+           "contact_velocity_loss", "detect", "finish", "fit_bones", "foot_velocity", "lock", "lock_feet",
+           "planted_heights", "planted_speed", "two_bone_ik"]
 
 # ----------------------------------------------------------------------------------------
 # Thresholds of the lock (measured on the built-in data; see notebook 01, section 5)
@@ -54,6 +56,17 @@ __all__ = ["BLEND_S", "BODY_FRACTION", "CLEAN_S", "CONTACT_HEIGHT_M", "CONTACT_S
 
 BLEND_S = 0.15
 """How long the lock takes to draw a landing foot onto the floor, seconds."""
+
+APPROACH_S = 0.15
+"""How long before a contact begins the offline lock slows a low foot into its landing
+spot, seconds (:func:`approach_shift`). A generated foot often comes down still sliding
+forward and is held only when it has slowed; the data's feet slow in the air."""
+
+APPROACH_HEIGHT = 2.0
+"""... and from how high: a foot joint is drawn towards its landing spot fully on the floor,
+not at all from this many times its contact height (:data:`CONTACT_HEIGHT_M`) above it. Up
+to 1.5 times, a foot that comes down steeply still lands sliding; from 3 times or with no
+limit the feet's acceleration rises to 1.5-1.6 times the motion's."""
 
 RELEASE_S = 0.25
 """How long a foot that lets go takes to rejoin the motion, seconds: long enough that most
@@ -212,10 +225,12 @@ class FootLock:
         contact = np.asarray(contacts)
         return _contact_array(contact[None] if single and contact.ndim == 1 else contact, (self.batch, 4))
 
-    def step(self, frame, contacts=None) -> np.ndarray:
+    def step(self, frame, contacts=None, approach=None) -> np.ndarray:
         """One frame ``(batch, 21, 3)`` (or ``(21, 3)`` when ``batch`` is 1) in, the same
         with the feet locked out. ``contacts`` ``(batch, 4)`` booleans (:data:`FEET` order)
-        or None to detect them."""
+        or None to detect them. ``approach`` ``(batch, 4, 2)`` or None: a horizontal shift
+        (x, z) for the joints of feet the lock does not hold (:func:`approach_shift`, which
+        needs later frames: the offline lock's)."""
         single = np.ndim(frame) == 2
         frame = checks.array(frame[None] if single else frame, "frame", (self.batch, LOCOMOTION.n_joints, 3))
         contact = self._detect(frame) if contacts is None else self._contacts(contacts, single)
@@ -224,6 +239,11 @@ class FootLock:
         active = in_contact.any(-1) & ~self.blocked                           # (b, feet)
         raw = frame[:, FEET]                                                  # (b, 4, 3)
         self._hold_and_let_go(raw, contact, active)
+        self.approach = np.zeros((self.batch, 4, 2))
+        if approach is not None:
+            approach = checks.array(approach[None] if single and np.ndim(approach) == 2 else approach, "approach",
+                                    (self.batch, 4, 2))
+            self.approach = np.where(np.repeat(active, 2, axis=1)[..., None], 0.0, approach)
         out = frame.copy()
         for leg in range(2):
             self._leg(frame, out, leg, contact, active)
@@ -274,7 +294,8 @@ class FootLock:
         """Write leg ``leg``'s knee, ankle and toe into ``out``: IK to the ankle's target,
         the heel raised to pivot on a held toe beyond reach, the foot aimed at the toe."""
         hip, knee, ankle, toe = LEGS[leg]
-        shift = [np.concatenate([self.offset[:, j, :1], self.lift[:, leg, None], self.offset[:, j, 1:]], -1)
+        xz = self.offset + self.approach
+        shift = [np.concatenate([xz[:, j, :1], self.lift[:, leg, None], xz[:, j, 1:]], -1)
                  for j in (2 * leg, 2 * leg + 1)]                              # ankle's, toe's (b, 3)
         hint = frame[:, toe] - frame[:, ankle]
         foot_length = np.linalg.norm(hint, axis=-1, keepdims=True)
@@ -328,8 +349,40 @@ class Locked:
         return self.reach_releases / max(self.contacts_started, 1)
 
 
-def lock(positions, fps: float, contacts=None, planted_height_m=None, blend_s: float = BLEND_S) -> Locked:
-    """:func:`lock_feet`, and what it did (:class:`Locked`)."""
+def approach_shift(positions, contacts, fps: float, planted_height_m, approach_s: float = APPROACH_S) -> np.ndarray:
+    """For the frames just before each contact begins, the horizontal shift ``(..., frames,
+    4, 2)`` (x, z) that draws each foot joint of ``positions`` ``(..., frames, 21, 3)``
+    towards the spot where it lands: ``w (spot - p_t)``, with ``w`` a smoothstep from 0,
+    ``approach_s`` before the landing, to nearly 1 the frame before it, times how near the
+    floor the joint is (1 on it, 0 from :data:`APPROACH_HEIGHT` times its contact height up).
+
+    A generated foot often comes down still sliding forward: it is low, but too fast to be
+    held, for a frame or two before the lock holds it, and that is sliding on the floor.
+    The data's feet slow down in the air and land almost still. Knowing where the foot
+    lands (later frames: offline only), the lock moves it there a little early, while it is
+    low. A foot in the air is not moved, and the landing spot is the motion's own."""
+    contacts = _contact_array(contacts, positions.shape[:-2] + (len(FEET),))
+    frames = positions.shape[-3]
+    steps = checks.non_negative(approach_s, "approach_s", checks.MAX_SECONDS) * fps
+    feet = positions[..., FEET, :]
+    xz = feet[..., [0, 2]]                                                  # (..., frames, 4, 2)
+    near = 1 - smoothstep((feet[..., 1] - planted_height_m) / (APPROACH_HEIGHT * np.asarray(CONTACT_HEIGHT_M)))
+    shift = np.zeros(xz.shape)
+    until = np.full(contacts.shape[:-2] + (len(FEET),), np.inf)              # frames to the next landing
+    spot = np.zeros(xz.shape[:-3] + xz.shape[-2:])
+    for t in range(frames - 2, -1, -1):
+        lands = contacts[..., t + 1, :] & ~contacts[..., t, :]
+        until = np.where(contacts[..., t, :], np.inf, np.where(lands, 1.0, until + 1))
+        spot = np.where(lands[..., None], xz[..., t + 1, :, :], spot)
+        w = np.where(until <= np.ceil(steps), smoothstep(1 - until / (steps + 1)), 0.0) * near[..., t, :]
+        shift[..., t, :, :] = w[..., None] * (spot - xz[..., t, :, :])
+    return shift
+
+
+def lock(positions, fps: float, contacts=None, planted_height_m=None, blend_s: float = BLEND_S,
+         approach_s: float = APPROACH_S) -> Locked:
+    """:func:`lock_feet`, and what it did (:class:`Locked`). ``approach_s`` (0: none): how
+    long before landing a low foot is slowed into its spot (:func:`approach_shift`)."""
     positions = _positions(positions)
     fps = checks.rate(fps, "fps")
     frames = positions.shape[-3]
@@ -343,10 +396,11 @@ def lock(positions, fps: float, contacts=None, planted_height_m=None, blend_s: f
         _contact_array(contacts, positions.shape[:-2] + (4,))
     flat = positions.reshape(-1, frames, LOCOMOTION.n_joints, 3)
     flat_contacts = contacts.reshape(-1, frames, 4)
+    approach = approach_shift(flat, flat_contacts, fps, floor, approach_s)
     locker = FootLock(fps, len(flat), floor, blend_s=blend)
     out = np.empty_like(flat)
     for t in range(frames):
-        out[:, t] = locker.step(flat[:, t], flat_contacts[:, t])
+        out[:, t] = locker.step(flat[:, t], flat_contacts[:, t], approach[:, t])
     foot = flat_contacts.reshape(len(flat), frames, 2, 2).any(-1)
     started = int(foot[:, 0].sum() + (foot[:, 1:] & ~foot[:, :-1]).sum())      # contacts that began
     return Locked(out.reshape(positions.shape), contacts, locker.locked_frames / (2 * len(flat) * frames),
@@ -358,10 +412,12 @@ def lock_feet(positions, fps: float, contacts=None, planted_height_m=None) -> np
 
     ``contacts`` ``(..., frames, 4)`` (:data:`FEET` order) or None: detected on the motion
     itself (:func:`detect`, with ``planted_height_m``: the data's planted heights, or
-    default the motion's own). While a foot is in contact it stays where it landed, on the
-    floor; the leg reaches it by two-bone IK; nothing above the hips moves; the lock lets
-    go when the contact ends or the leg cannot reach, blending over :data:`BLEND_S`. The
-    same lock as :class:`FootLock` (causal) run over the clip, given the offline labels.
+    default the motion's own). While a foot is in contact it
+    stays where it landed, on the floor; the leg reaches it by two-bone IK; nothing above
+    the hips moves; the lock lets go when the contact ends or the leg cannot reach,
+    blending over :data:`BLEND_S`. The same lock as :class:`FootLock` (causal) run over
+    the clip, given the offline labels, and slowing a landing foot into its spot
+    (:func:`approach_shift`), which the causal lock cannot know.
     """
     return lock(positions, fps, contacts, planted_height_m).positions
 

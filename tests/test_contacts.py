@@ -174,11 +174,17 @@ def test_a_motion_without_contacts_is_left_alone(walking):
 
 def test_the_causal_lock_needs_no_future_and_equals_the_offline_one_given_the_same_contacts(walking):
     slides = sliding(walking)
-    offline = contacts.lock(slides, FPS)
+    offline = contacts.lock(slides, FPS, approach_s=0.0)
     floor = contacts.planted_heights(slides)
     lock = contacts.FootLock(FPS, batch=2, planted_height_m=floor)
     stepped = np.stack([lock.step(slides[:, t], offline.contacts[:, t]) for t in range(slides.shape[1])], axis=1)
     np.testing.assert_allclose(stepped, offline.positions, atol=1e-12)
+    # the offline lock is the causal one given the contacts and the approach, its one look-ahead
+    approach = contacts.approach_shift(slides, offline.contacts, FPS, floor)
+    lock.reset()
+    stepped = np.stack([lock.step(slides[:, t], offline.contacts[:, t], approach[:, t])
+                        for t in range(slides.shape[1])], axis=1)
+    np.testing.assert_allclose(stepped, contacts.lock(slides, FPS).positions, atol=1e-12)
     # detecting on its own, frame by frame: later frames cannot change earlier outputs
     one = contacts.FootLock(FPS, planted_height_m=floor)
     first = np.stack([one.step(frame) for frame in slides[0]])
@@ -188,6 +194,36 @@ def test_the_causal_lock_needs_no_future_and_equals_the_offline_one_given_the_sa
     second = np.stack([one.step(frame) for frame in changed])
     np.testing.assert_array_equal(first[:60], second[:60])
     assert skating(first[None], floor) < 0.6 * skating(slides[:1], floor)
+
+
+def test_a_landing_foot_is_slowed_into_its_spot_only_while_low(walking):
+    slides = sliding(walking, 1.4)
+    floor = contacts.planted_heights(walking)
+    labels = contacts.detect(slides, FPS, floor)
+    shift = contacts.approach_shift(slides, labels, FPS, floor)
+    assert shift.shape == labels.shape + (2,)
+    # nothing in contact, nothing high, nothing long before a landing is moved
+    steps = int(np.ceil(contacts.APPROACH_S * FPS))
+    before = np.zeros_like(labels)
+    for k in range(1, steps + 1):
+        before[:, :-k] |= labels[:, k:] & ~labels[:, k - 1:-1] if k > 1 else labels[:, 1:] & ~labels[:, :-1]
+    moved = np.abs(shift).sum(-1) > 0
+    assert moved.any() and not (moved & labels).any()
+    height = slides[..., FEET, 1] - floor
+    assert not (moved & (height > contacts.APPROACH_HEIGHT * np.asarray(contacts.CONTACT_HEIGHT_M))).any()
+    assert not (moved & ~before).any()
+    # the low frames before a landing slide less; the landing spots and the held feet do not change
+    plain, drawn = (contacts.lock(slides, FPS, labels, floor, approach_s=a).positions for a in (0.0, contacts.APPROACH_S))
+    low = before & (height < contacts.APPROACH_HEIGHT * np.asarray(contacts.CONTACT_HEIGHT_M))
+    speed = [np.linalg.norm(np.diff(p[..., FEET, :][..., [0, 2]], axis=1), axis=-1) for p in (plain, drawn)]
+    last = low[:, :-1] & labels[:, 1:]                                     # the step onto the floor
+    assert speed[1][last].mean() < 0.7 * speed[0][last].mean()
+    feet_down = labels.reshape(*labels.shape[:2], 2, 2).all(-1)            # both joints of a foot held
+    for leg in range(2):
+        joints = list(contacts.LEGS[leg][1:])
+        np.testing.assert_allclose(drawn[feet_down[..., leg]][:, joints], plain[feet_down[..., leg]][:, joints],
+                                   atol=1e-12)
+    np.testing.assert_array_equal(drawn[..., ABOVE_HIPS, :], slides[..., ABOVE_HIPS, :])
 
 
 def test_finish_returns_features_on_the_same_path(walking):
