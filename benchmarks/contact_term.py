@@ -5,11 +5,14 @@ what does it cost?
     python benchmarks/contact_term.py                                  # VAE-LSTM, weights 0 0.3 1 3 10
     python benchmarks/contact_term.py --model vae_lstm dfn --seeds 0 1 --jobs 20 --device cuda
     python benchmarks/contact_term.py --model vae_lstm dfn --epochs 1 --weights 1    # a smoke run
+    python benchmarks/contact_term.py --weights 1 --bone-weights 1 10      # also the bone-length term
 
 Each model is trained by its recipe of ``make checkpoints`` (the Makefile; the command line
 ``python -m motionlab.train``) without the term and with each weight of ``--weights``
 (``--set contact_weight=W``; defaults :data:`WEIGHTS`, chosen from the term's scale against
-each loss), for each of ``--seeds`` (the command line's seed: the training clips and the
+each loss), for the VAE-LSTM also with each of ``--bone-weights`` (``--set bone_weight=W``:
+the squared error of the reconstruction's bone lengths, cm²; default 0, off), for each of
+``--seeds`` (the command line's seed: the training clips and the
 first weights), ``--jobs`` trainings at a time in their own processes, their checkpoints and
 logs in ``--out`` (a checkpoint already there is reused). ``--epochs`` shortens the
 VAE-LSTM's 20 epochs, and DFN's 10 / 10 / 20 and the conv AE's 40 by the same fraction.
@@ -66,17 +69,20 @@ class Run:
     model: str                     # "vae_lstm", "dfn" or "conv_ae"
     weight: float
     seed: int
+    bone: float = 0.0              # the VAE-LSTM's bone_weight
 
     @property
     def label(self) -> str:
         return {"vae_lstm": "VAE-LSTM", "dfn": "DFN", "conv_ae": "conv AE"}[self.model]
 
     def checkpoint(self, out: Path, epochs: int) -> Path:
-        return out / f"{self.model}_contact{self.weight:g}_seed{self.seed}_epochs{epochs}.pt"
+        bone = f"_bone{self.bone:g}" if self.bone > 0 else ""
+        return out / f"{self.model}_contact{self.weight:g}{bone}_seed{self.seed}_epochs{epochs}.pt"
 
     def command(self, epochs: int, device: str, path: Path) -> list[str]:
         """The ``make checkpoints`` recipe for this run (``python -m motionlab.train`` arguments)."""
         weight = [f"contact_weight={self.weight:g}"] if self.weight > 0 else []
+        weight += [f"bone_weight={self.bone:g}"] if self.bone > 0 else []
         if self.model == "vae_lstm":
             recipe = ["vae_lstm", "--synthetic-clips", "120", "--epochs", str(epochs), "--lr", "3e-3", "--half",
                       "--set", "observation_std=3.0", *weight]
@@ -188,7 +194,8 @@ def conv_ae_row(run: Run, checkpoint, windows: np.ndarray, rest: np.ndarray) -> 
         errors[name] = tuple(metrics.window_errors(trivial, truth, FPS).values())
     verdict = claims.beats_trivial_reconstructions(errors, "conv AE")
     r = metrics.locomotion_report(features, FPS, rest)
-    print(f"| conv AE (reconstructions) | {run.weight:g} | {run.seed} | {checkpoint.history.seconds:.0f} | {term:.3f} "
+    print(f"| conv AE (reconstructions) | {run.weight:g} | | {run.seed} | {checkpoint.history.seconds:.0f} "
+          f"| {term:.3f} "
           f"| {100 * r['foot skating (m/s)']:.1f} | {locked_skating(features, rest):.1f} "
           f"| pose {100 * errors['conv AE'][0]:.2f} | | | {100 * r['bone drift']:.2f} | n/a "
           f"| {'holds' if verdict else 'fails'} |", flush=True)
@@ -208,13 +215,13 @@ def measure(runs: list[Run], args: argparse.Namespace) -> None:
     judged_t = torch.tensor(judged)
     print(f"held-out built-in data: {len(windows)} windows of {windows.shape[1]} frames at {FPS:g} fps, the first "
           f"{comparison.PREFIX_FRAMES} the prefix of the models that continue motion\n")
-    print("| model | contact weight | seed | training (s) | contact term, held-out ((m/s)²) | foot skating (cm/s) "
-          "| after lock_feet (cm/s) | pose error 1 s / 3 s (cm) | stepping / data | leg swing / data "
+    print("| model | contact weight | bone weight | seed | training (s) | contact term, held-out ((m/s)²) "
+          "| foot skating (cm/s) | after lock_feet (cm/s) | pose error 1 s / 3 s (cm) | stepping / data | leg swing / data "
           "| bone drift (%) | NLL bound (bits/frame) | paper's claim |")
-    print("|" + "---|" * 13)
+    print("|" + "---|" * 14)
     data_row = comparison.table_rows({}, windows)["data"]
     own = float(contacts.contact_velocity_loss(judged_t, judged_t, FPS))
-    print(f"| data | | | | {own:.3f} | {data_row['foot skating (cm/s)']:.1f} "
+    print(f"| data | | | | | {own:.3f} | {data_row['foot skating (cm/s)']:.1f} "
           f"| {locked_skating(judged, rest):.1f} | | {data_row['stepping (m/s)']:.2f} m/s "
           f"| {data_row['leg swing (cm)']:.1f} cm | {data_row['bone drift (%)']:.2f} | | |")
     failures = []
@@ -231,9 +238,10 @@ def measure(runs: list[Run], args: argparse.Namespace) -> None:
         sample = comparison.held_out_samples(models, windows)[run.label]
         verdict = vae_lstm_claim(model, presets) if run.model == "vae_lstm" else \
             dfn_claim(model, checkpoint.description)
-        failures += [f"{run.label}, weight {run.weight:g}, seed {run.seed}: {why}" for why in verdict.failures]
+        failures += [f"{run.label}, weight {run.weight:g}, bone weight {run.bone:g}, seed {run.seed}: {why}"
+                     for why in verdict.failures]
         nll = "n/a" if not np.isfinite(r["test NLL (bits/frame)"]) else f"≤ {r['test NLL (bits/frame)']:.0f}"
-        print(f"| {run.label} | {run.weight:g} | {run.seed} | {checkpoint.history.seconds:.0f} "
+        print(f"| {run.label} | {run.weight:g} | {run.bone:g} | {run.seed} | {checkpoint.history.seconds:.0f} "
               f"| {held_out_term(model, windows):.3f} | {r['foot skating (cm/s)']:.1f} "
               f"| {locked_skating(sample, rest):.1f} "
               f"| {r['pose error 1 s (cm)']:.1f} / {r['pose error 3 s (cm)']:.1f} "
@@ -253,6 +261,8 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--weights", nargs="+", type=float, default=None,
                         help="contact weights (> 0) besides 0, for every model (default: per model, "
                              + "; ".join(f"{m} {' '.join(f'{w:g}' for w in ws)}" for m, ws in WEIGHTS.items()) + ")")
+    parser.add_argument("--bone-weights", nargs="+", type=float, default=[],
+                        help="bone-length weights (> 0) besides 0, the VAE-LSTM only (default: none)")
     parser.add_argument("--seeds", nargs="+", type=int, default=[0], help="seeds of the trainings (default 0)")
     parser.add_argument("--epochs", type=int, default=RECIPE_EPOCHS,
                         help=f"the VAE-LSTM's epochs (default {RECIPE_EPOCHS}, the recipe's); "
@@ -266,13 +276,16 @@ def main(argv: list[str] | None = None) -> None:
     args = parser.parse_args(argv)
     if args.weights is not None and not all(np.isfinite(w) and w > 0 for w in args.weights):
         parser.error(f"--weights: expected numbers > 0 (0 is always run), got {args.weights}")
+    if not all(np.isfinite(w) and w > 0 for w in args.bone_weights) \
+            or (args.bone_weights and args.model != ["vae_lstm"]):
+        parser.error(f"--bone-weights: expected numbers > 0, with --model vae_lstm only; got {args.bone_weights}")
     if args.epochs < 1 or args.jobs < 1 or (args.threads is not None and args.threads < 1) \
             or any(s < 0 for s in args.seeds):
         parser.error("--epochs, --jobs and --threads: expected whole numbers >= 1; --seeds >= 0")
     args.threads = args.threads or max(1, (os.cpu_count() or 1) // args.jobs)
     args.out.mkdir(parents=True, exist_ok=True)
-    runs = [Run(model, weight, seed) for model in args.model for seed in args.seeds
-            for weight in (0.0, *(args.weights or WEIGHTS[model]))]
+    runs = [Run(model, weight, seed, bone) for model in args.model for seed in args.seeds
+            for bone in (0.0, *args.bone_weights) for weight in (0.0, *(args.weights or WEIGHTS[model]))]
     print(f"{len(runs)} trainings on {args.device} ({args.jobs} at a time, {args.threads} CPU thread(s) each), "
           f"{args.epochs} epochs{'' if args.epochs == RECIPE_EPOCHS else ' (shortened)'}; checkpoints in {args.out}\n")
     train_all(runs, args)

@@ -44,8 +44,8 @@ from .filters import smoothstep
 from .representation import along_path, to_positions
 from .skeleton import FEET, LOCOMOTION, Skeleton
 
-__all__ = ["APPROACH_HEIGHT", "APPROACH_S", "BLEND_S", "BODY_FRACTION", "CLEAN_S", "CONTACT_HEIGHT_M", "CONTACT_SPEED_MS", "FEET",
-           "FOLLOW", "LEGS", "LOW_FADE", "PIVOT_BEND", "PLANTED_HEIGHT_M", "REACH_SLACK_M",
+__all__ = ["APPROACH_HEIGHT", "APPROACH_S", "BLEND_S", "BODY_FRACTION", "CLEAN_S", "CONTACT_HEIGHT_M",
+           "CONTACT_SPEED_MS", "FEET", "FOLLOW", "LEGS", "LOW_FADE", "PIVOT_BEND", "PLANTED_HEIGHT_M", "REACH_SLACK_M",
            "RELEASE", "RELEASE_S", "FootLock", "Finished", "Locked", "approach_shift", "contact_labels",
            "contact_velocity_loss", "detect", "finish", "fit_bones", "foot_velocity", "lock", "lock_feet",
            "planted_heights", "planted_speed", "two_bone_ik"]

@@ -37,6 +37,7 @@ import torch
 
 from .. import checks, contacts
 from ..representation import CONTROL, N_POSE, to_positions
+from ..skeleton import LOCOMOTION
 
 N_FEATURES = N_POSE + 3
 """Features per frame: 63 root-local joint coordinates, then the 3 control values."""
@@ -118,19 +119,40 @@ def generator_for(seed) -> torch.Generator:
     return torch.Generator().manual_seed(checks.whole(seed, "seed", 0))
 
 
+def _in_data_units(model, term: str, *tensors: torch.Tensor) -> list[torch.Tensor]:
+    """Normalised tensors back in the data's units through ``model.normalizer`` (float32)."""
+    normalizer = getattr(model, "normalizer", None)
+    if normalizer is None:
+        raise ValueError(f"{term}: {type(model).__name__}'s {term.split('_')[0]} term measures the body in the "
+                         "data's units and needs its normaliser; train with training.train on a MotionData "
+                         "(it sets model.normalizer) or set model.normalizer")
+    return [normalizer.denormalize(t.float()) for t in tensors]
+
+
 def contact_term(model, prediction: torch.Tensor, target: torch.Tensor, fps: float) -> torch.Tensor:
     """:func:`motionlab.contacts.contact_velocity_loss` of a reconstruction against its data,
     both normalised ``(batch, frames, 66)``, measured in the data's units through
     ``model.normalizer`` (which :func:`motionlab.training.train` sets from the data before the
     first step): the models train on normalised features, and a foot's world velocity only
     exists in metres. Computed in float32 (under mixed precision too)."""
-    normalizer = getattr(model, "normalizer", None)
-    if normalizer is None:
-        raise ValueError(f"contact_weight: {type(model).__name__}'s contact term measures feet in the data's "
-                         "units and needs its normaliser; train with training.train on a MotionData "
-                         "(it sets model.normalizer) or set model.normalizer")
-    return contacts.contact_velocity_loss(normalizer.denormalize(prediction.float()),
-                                          normalizer.denormalize(target.float()), fps)
+    return contacts.contact_velocity_loss(*_in_data_units(model, "contact_weight", prediction, target), fps)
+
+
+def bone_term(model, prediction: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
+    """The squared error of every bone's length in a reconstruction against its data, cm²
+    (the mean over bones, frames and the batch), both normalised ``(batch, frames, 66)`` and
+    measured in the data's units (:func:`contact_term`'s conversion). Joint coordinates are
+    free to stretch a bone; this asks the reconstruction's bones for the data's lengths,
+    which :func:`motionlab.contacts.fit_bones` restores only after the fact."""
+    prediction, target = _in_data_units(model, "bone_weight", prediction, target)
+    child = [j for _, j in LOCOMOTION.bones]
+    parent = [i for i, _ in LOCOMOTION.bones]
+
+    def lengths(x: torch.Tensor) -> torch.Tensor:
+        pose = x[..., :N_POSE].unflatten(-1, (LOCOMOTION.n_joints, 3))
+        return (pose[..., child, :] - pose[..., parent, :]).norm(dim=-1)
+
+    return (100 * (lengths(prediction) - lengths(target).detach())).square().mean()
 
 
 class GenerativeModel:
@@ -203,6 +225,10 @@ class GenerativeModel:
     def contact_term(self, prediction: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
         """:func:`contact_term` of this model's reconstruction against its data."""
         return contact_term(self, prediction, target, self.fps)
+
+    def bone_term(self, prediction: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
+        """:func:`bone_term` of this model's reconstruction against its data."""
+        return bone_term(self, prediction, target)
 
     def _result(self, normalised: torch.Tensor) -> Generated:
         """Normalised features ``(n, frames, 66)`` -> :class:`Generated` in the data's units."""

@@ -17,6 +17,7 @@ canvas back into frames at the full rate::
     loss = -log N(X | X^, std^2) + sum_s KL(q(z_s | X) || N(0, I))                          eqs. 4-5
          + free_running * -log N(X | X^ decoded from z_1 alone, test-time cell, std^2)    (ours)
          + contact_weight * mean(planted in X * |world foot velocity in X^|^2)   (HuMoR, EDGE, MDM; off: 0)
+         + bone_weight * mean((bone length in X^ - in X)^2, cm^2)                    (ours; off: 0)
 
 Generation (§3.4, Algorithm 1) needs only a control signal: ``z_1`` comes from the prior
 (no frames) or from the posterior of the first 4 frames (§4.3), and the cell runs in its
@@ -80,6 +81,8 @@ class VAELSTMConfig:
         contact_weight: weight of the foot-contact velocity term (HuMoR, EDGE, MDM; see
             :meth:`loss`): nats per frame per (m/s)² of planted-foot velocity; 0 = off (the
             shipped models).
+        bone_weight: weight of the bone-length term (:meth:`loss`): nats per frame per cm²
+            of squared bone-length error; 0 = off (the shipped models).
     """
 
     n_pose: int = 63
@@ -99,10 +102,12 @@ class VAELSTMConfig:
     control_smoothing_s: float = 0.0
     upsample: str = "linear"
     contact_weight: float = 0.0
+    bone_weight: float = 0.0
 
     def __post_init__(self):
         checks.config(self, positive_fields=("observation_std",), probability_fields=("dropout",),
-                      non_negative_fields=("l1", "free_running", "control_smoothing_s", "contact_weight"))
+                      non_negative_fields=("l1", "free_running", "control_smoothing_s", "contact_weight",
+                                           "bone_weight"))
         for name in ("n_pose", "n_control", "window", "control_filters", "control_code",
                      "inference_filters", "units", "decoder_filters"):
             if getattr(self, name) < 1:
@@ -111,12 +116,6 @@ class VAELSTMConfig:
             raise ValueError(f"width: must be odd and >= 1 so a convolution keeps the length, got {self.width}")
         if not 0 <= self.dropout < 1:
             raise ValueError(f"dropout: expected 0 <= p < 1, got {self.dropout}")
-        if self.observation_std <= 0:
-            raise ValueError(f"observation_std: must be > 0, got {self.observation_std}")
-        if self.l1 < 0 or self.free_running < 0:
-            raise ValueError(f"l1 and free_running: must be >= 0, got {self.l1} and {self.free_running}")
-        if self.control_smoothing_s < 0:
-            raise ValueError(f"control_smoothing_s: must be >= 0, got {self.control_smoothing_s}")
         if self.upsample not in ("linear", "nearest"):
             raise ValueError(f"upsample: expected 'linear' or 'nearest', got {self.upsample!r}")
 
@@ -407,6 +406,8 @@ class VAELSTM(GenerativeModel, nn.Module):
         only a training target). Applied to each reconstruction the loss has, with its weight
         there: the training form, and the free-running one times ``free_running`` (the path
         that generates, and whose feet slide). Logged: ``contact`` and ``free_contact``.
+        With ``bone_weight > 0``, the same for the bone-length term (:meth:`bone_term`, cm²):
+        logged ``bone`` and ``free_bone``.
         """
         self._check(batch, "x", self.config.n_features, finite=False)   # NaN: the training loop's guard
         out = self._forward(batch)
@@ -416,21 +417,19 @@ class VAELSTM(GenerativeModel, nn.Module):
         total = (nll + kl).mean() + self.config.l1 * self.l1_penalty()
         terms = {"nll": nll.mean(), "kl": kl.mean(),
                  "mse": F.mse_loss(out["reconstruction"], batch).detach()}
+        n_pose, paths = self.config.n_pose, [("", out["reconstruction"], 1.0)]
         if self.config.free_running > 0:
             free = self.decode(self.canvas(out["control_code"], out["z"][:, :1]))[:, :frames]
             free_nll = self._neg_log_likelihood(free, batch).sum(1) / frames
             total = total + self.config.free_running * free_nll.mean()
             terms["free_mse"] = F.mse_loss(free, batch).detach()
-        if self.config.contact_weight > 0:
-            n_pose = self.config.n_pose
-            contact = self.contact_term(torch.cat([out["reconstruction"][..., :n_pose], batch[..., n_pose:]], -1),
-                                        batch)
-            total = total + self.config.contact_weight * contact
-            terms["contact"] = contact.detach()
-            if self.config.free_running > 0:
-                free_contact = self.contact_term(torch.cat([free[..., :n_pose], batch[..., n_pose:]], -1), batch)
-                total = total + self.config.contact_weight * self.config.free_running * free_contact
-                terms["free_contact"] = free_contact.detach()
+            paths.append(("free_", free, self.config.free_running))
+        for name, weight, term in (("contact", self.config.contact_weight, self.contact_term),
+                                   ("bone", self.config.bone_weight, self.bone_term)):
+            for prefix, reconstruction, scale in paths if weight > 0 else ():
+                value = term(torch.cat([reconstruction[..., :n_pose], batch[..., n_pose:]], -1), batch)
+                total = total + weight * scale * value
+                terms[prefix + name] = value.detach()
         return {"loss": total, **terms}
 
     # -- generation ----------------------------------------------------------------------

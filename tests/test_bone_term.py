@@ -1,0 +1,88 @@
+"""The bone-length term in the VAE-LSTM's loss (``bone_weight``): off by default and then the
+old loss bit for bit; on, it is the squared error of the reconstruction's bone lengths (cm²)
+and training with it keeps the bones nearer their lengths."""
+from dataclasses import replace
+
+import numpy as np
+import pytest
+import torch
+
+from motionlab import data, metrics, training
+from motionlab.models.base import bone_term
+from motionlab.models.vae_lstm import VAELSTM, VAELSTMConfig
+from motionlab.representation import N_POSE, to_positions
+from motionlab.skeleton import LOCOMOTION
+
+FPS = 20.0
+SMALL = VAELSTMConfig(window=16, width=5, control_filters=4, control_code=6, inference_filters=8, units=5,
+                      decoder_filters=8)
+
+
+@pytest.fixture(scope="module")
+def prepared():
+    return data.prepare(data.load("synthetic", fps=FPS, n_clips=6, duration_s=4), window_s=0.8)
+
+
+def model(prepared, bone: float, **changes) -> VAELSTM:
+    torch.manual_seed(0)
+    m = VAELSTM(replace(SMALL, bone_weight=bone, **changes))
+    m.normalizer = prepared.normalizer
+    return m
+
+
+def test_the_term_is_the_squared_bone_length_error_in_cm2(prepared):
+    m = model(prepared, 1.0)
+    batch = prepared.train.windows[:4]
+    assert float(m.bone_term(batch, batch)) == 0.0
+    # stretch every pose about its root by 2 %: each bone 2 % longer
+    units = torch.tensor(prepared.normalizer.denormalize(batch.numpy()))
+    stretched = units.clone()
+    stretched[..., :N_POSE] *= 1.02
+    lengths = LOCOMOTION.bone_lengths(units[..., :N_POSE].reshape(*units.shape[:2], -1, 3).numpy())
+    expected = float(np.mean((100 * 0.02 * lengths) ** 2))
+    prediction = torch.tensor(prepared.normalizer.normalize(stretched.numpy()), dtype=torch.float32)
+    assert float(bone_term(m, prediction, batch)) == pytest.approx(expected, rel=1e-3)
+
+
+@pytest.mark.parametrize("free_running", [0.0, 1.0])
+def test_off_it_is_the_old_loss_and_on_it_adds_its_weight_times_the_term(prepared, free_running):
+    batch = prepared.train.windows[:4]
+    assert VAELSTMConfig().bone_weight == 0.0
+    off, on = model(prepared, 0.0, free_running=free_running), model(prepared, 3.0, free_running=free_running)
+    torch.manual_seed(5)
+    without = off.loss(batch)
+    torch.manual_seed(5)
+    with_term = on.loss(batch)
+    assert "bone" not in without and ("free_bone" in with_term) == (free_running > 0)
+    for key in without:                                       # the term draws no random numbers
+        if key != "loss":
+            assert torch.equal(with_term[key], without[key]), key
+    added = 3.0 * (with_term["bone"] + free_running * with_term.get("free_bone", 0.0))
+    assert torch.allclose(with_term["loss"], without["loss"] + added, rtol=1e-6)
+    assert float(with_term["bone"]) > 0 and not with_term["bone"].requires_grad
+
+
+def test_training_with_the_term_keeps_the_bones_nearer_their_lengths(prepared):
+    val = prepared.val.windows
+    config = training.TrainConfig(epochs=100, max_steps=60, lr=3e-3, batch_size=16, progress=False)
+    drift = {}
+    for weight in (0.0, 3.0):
+        m = model(prepared, weight)
+        history = training.train(m, prepared, config)
+        assert ("bone" in history.train[-1]) == (weight > 0)
+        rebuilt = prepared.normalizer.denormalize(m.reconstruct(val).double().numpy())
+        drift[weight] = metrics.bone_length_drift(to_positions(rebuilt, FPS))
+    assert drift[3.0] < 0.8 * drift[0.0]
+
+
+@pytest.mark.parametrize("bad", [-1.0, float("nan"), float("inf"), "1"])
+def test_a_bad_weight_names_the_field(bad):
+    with pytest.raises(ValueError, match="bone_weight"):
+        VAELSTMConfig(bone_weight=bad)
+
+
+def test_the_term_needs_the_normalizer(prepared):
+    m = model(prepared, 1.0)
+    m.normalizer = None
+    with pytest.raises(ValueError, match="bone_weight: .*normaliser"):
+        m.loss(prepared.train.windows[:2])
