@@ -361,9 +361,11 @@ def approach_shift(positions, contacts, fps: float, planted_height_m, approach_s
     The data's feet slow down in the air and land almost still. Knowing where the foot
     lands (later frames: offline only), the lock moves it there a little early, while it is
     low. A foot in the air is not moved, and the landing spot is the motion's own."""
+    positions = _positions(positions)
     contacts = _contact_array(contacts, positions.shape[:-2] + (len(FEET),))
+    planted_height_m = _per_foot_joint(planted_height_m, "planted_height_m", positive=False)
     frames = positions.shape[-3]
-    steps = checks.non_negative(approach_s, "approach_s", checks.MAX_SECONDS) * fps
+    steps = checks.non_negative(approach_s, "approach_s", checks.MAX_SECONDS) * checks.rate(fps, "fps")
     feet = positions[..., FEET, :]
     xz = feet[..., [0, 2]]                                                  # (..., frames, 4, 2)
     near = 1 - smoothstep((feet[..., 1] - planted_height_m) / (APPROACH_HEIGHT * np.asarray(CONTACT_HEIGHT_M)))
@@ -412,12 +414,12 @@ def lock_feet(positions, fps: float, contacts=None, planted_height_m=None) -> np
 
     ``contacts`` ``(..., frames, 4)`` (:data:`FEET` order) or None: detected on the motion
     itself (:func:`detect`, with ``planted_height_m``: the data's planted heights, or
-    default the motion's own). While a foot is in contact it
-    stays where it landed, on the floor; the leg reaches it by two-bone IK; nothing above
-    the hips moves; the lock lets go when the contact ends or the leg cannot reach,
-    blending over :data:`BLEND_S`. The same lock as :class:`FootLock` (causal) run over
-    the clip, given the offline labels, and slowing a landing foot into its spot
-    (:func:`approach_shift`), which the causal lock cannot know.
+    default the motion's own). While a foot is in contact it stays where it landed, on the
+    floor; the leg reaches it by two-bone IK; nothing above the hips moves; the lock lets
+    go when the contact ends or the leg cannot reach, blending over :data:`BLEND_S`. The
+    same lock as :class:`FootLock` (causal) run over the clip, given the offline labels,
+    and slowing a landing foot into its spot (:func:`approach_shift`), which the causal
+    lock cannot know.
     """
     return lock(positions, fps, contacts, planted_height_m).positions
 

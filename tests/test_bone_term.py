@@ -1,33 +1,22 @@
 """The bone-length term in the VAE-LSTM's loss (``bone_weight``): off by default and then the
 old loss bit for bit; on, it is the squared error of the reconstruction's bone lengths (cm²)
 and training with it keeps the bones nearer their lengths."""
-from dataclasses import replace
-
 import numpy as np
 import pytest
 import torch
 
-from motionlab import data, metrics, training
+from motionlab import metrics, training
 from motionlab.models.base import bone_term
 from motionlab.models.vae_lstm import VAELSTM, VAELSTMConfig
 from motionlab.representation import N_POSE, to_positions
 from motionlab.skeleton import LOCOMOTION
 
-FPS = 20.0
-SMALL = VAELSTMConfig(window=16, width=5, control_filters=4, control_code=6, inference_filters=8, units=5,
-                      decoder_filters=8)
-
-
-@pytest.fixture(scope="module")
-def prepared():
-    return data.prepare(data.load("synthetic", fps=FPS, n_clips=6, duration_s=4), window_s=0.8)
+from test_contact_term import FPS, prepared, vae_lstm  # noqa: F401 (prepared: the same small data set)
 
 
 def model(prepared, bone: float, **changes) -> VAELSTM:
-    torch.manual_seed(0)
-    m = VAELSTM(replace(SMALL, bone_weight=bone, **changes))
-    m.normalizer = prepared.normalizer
-    return m
+    """test_contact_term's small VAE-LSTM, without the contact term, with ``bone_weight``."""
+    return vae_lstm(prepared, 0.0, bone_weight=bone, **changes)
 
 
 def test_the_term_is_the_squared_bone_length_error_in_cm2(prepared):

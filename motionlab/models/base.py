@@ -145,8 +145,8 @@ def bone_term(model, prediction: torch.Tensor, target: torch.Tensor) -> torch.Te
     free to stretch a bone; this asks the reconstruction's bones for the data's lengths,
     which :func:`motionlab.contacts.fit_bones` restores only after the fact."""
     prediction, target = _in_data_units(model, "bone_weight", prediction, target)
-    child = [j for _, j in LOCOMOTION.bones]
-    parent = [i for i, _ in LOCOMOTION.bones]
+    child = [j for _, j in LOCOMOTION.bones]                  # Skeleton.bone_lengths, in torch
+    parent = LOCOMOTION.parents[child].tolist()
 
     def lengths(x: torch.Tensor) -> torch.Tensor:
         pose = x[..., :N_POSE].unflatten(-1, (LOCOMOTION.n_joints, 3))
