@@ -1,9 +1,12 @@
-"""MoGlow with its feet anchored where they were planted (``MoGlowConfig.foot_anchor``)
-against the shipped MoGlow: the likelihood, the feet, and the §5.3 claims.
+"""MoGlow and Glow with their feet anchored where they were planted (``foot_anchor``,
+:mod:`motionlab.models.anchor`) against the shipped models: the likelihood, the feet, the
+bones and the claims.
 
     python -m motionlab.train moglow --synthetic-clips 200 --epochs 60 --lr 3e-3 --batch-size 32 --half \\
         --set foot_anchor=true --out data/cache/moglow_foot_anchor.pt     # the shipped recipe, anchored
-    python benchmarks/foot_anchor.py data/cache/moglow_foot_anchor.pt [more checkpoints ...]
+    python -m motionlab.train glow --synthetic-clips 200 --stride 1.0 --epochs 20 --lr 2e-3 --batch-size 32 \\
+        --half --set foot_anchor=true --out data/cache/glow_foot_anchor.pt  # Glow's shipped recipe, anchored
+    python benchmarks/foot_anchor.py data/cache/moglow_foot_anchor.pt data/cache/glow_foot_anchor.pt
 
 ``foot_anchor`` makes the flow model each ankle's and toe's ``x, z`` less where it would be
 had it stayed planted since the previous frame: a shift by a function of the conditioning,
@@ -16,18 +19,29 @@ legs that stretch skate little: read the two together) and stepping from the 2nd
 against the data's; and the §5.3 claims at the notebook's temperature 0.3: it follows the
 control (walks when told, stops when told: ``claims.follows_control``) and a 30-s sample
 along the circle keeps moving (``claims.keeps_moving``).
+
+A Glow checkpoint is set beside the shipped Glow: the test NLL; the first 4-s window of
+each path (Glow draws whole windows) at temperatures 0, 0.5 (notebook 05's) and 1, raw and
+finished, with the mean bone drift and the most-stretched bone's; and notebook 05's claim,
+``claims.moves_like_data`` on the held-out windows at each temperature.
 """
 from __future__ import annotations
 
 import argparse
 
 
+import numpy as np
+
 from motionlab import claims, comparison, contacts, experiments, metrics, pretrained, training
-from motionlab.representation import to_positions
+from motionlab.models.glow import Glow
+from motionlab.representation import N_POSE, to_positions
+from motionlab.skeleton import LOCOMOTION
 
 FPS = 20.0
 STEER_S, LONG_S = 10.0, 30.0
 TEMPERATURES = (0.0, 0.3, 1.0)
+GLOW_TEMPERATURES = (0.0, 0.5, 1.0)
+SECONDS_GLOW, N = 4.0, 4
 
 
 def verdict_line(verdict) -> str:
@@ -38,8 +52,8 @@ def report(label: str, model) -> None:
     nll, _ = comparison._nll(model, experiments.held_out_windows(comparison.TEST_WINDOW, FPS))
     print(f"\n### {label} (foot_anchor={model.config.foot_anchor}): test NLL {nll:.1f} bits/frame\n")
     print("| path, temperature | skating raw (cm/s) | finished (cm/s) | data's (cm/s) | raw / data | finished / data "
-          "| bone drift raw (%) | stepping / data, seconds 2-10 |")
-    print("|---|---|---|---|---|---|---|---|")
+          "| bone drift raw (%) | most-stretched bone: the joint it ends in, % | stepping / data, seconds 2-10 |")
+    print("|---|---|---|---|---|---|---|---|---|")
     reports = {}
     for path in ("walk", "run"):
         for t in TEMPERATURES:
@@ -51,8 +65,10 @@ def report(label: str, model) -> None:
             data = metrics.foot_skating(to_positions(r["data"], FPS), FPS, rest_height_m=floor)
             ratios = r["stepping"][1:] / r["data stepping"][1:]
             drift = metrics.bone_length_drift(to_positions(r["samples"], FPS))
+            bone, stretch = worst_bone(to_positions(r["samples"], FPS))
             print(f"| {path}, τ = {t:g} | {100 * raw:.1f} | {100 * finished:.1f} | {100 * data:.1f} | {raw / data:.1f} "
-                  f"| {finished / data:.1f} | {100 * drift:.1f} | {ratios.min():.2f}-{ratios.max():.2f} |")
+                  f"| {finished / data:.1f} | {100 * drift:.1f} | {bone} {100 * stretch:.0f} "
+                  f"| {ratios.min():.2f}-{ratios.max():.2f} |")
     walk = reports["walk", 0.3]
     stop = experiments.steering_report(model, "walk, then stop", STEER_S, temperature=0.3)
     follows = claims.follows_control(walk["samples"], walk["data stepping"], stop["samples"], stop["control"], FPS,
@@ -63,14 +79,57 @@ def report(label: str, model) -> None:
           f"{verdict_line(moving)}")
 
 
+def worst_bone(positions: np.ndarray) -> tuple[str, float]:
+    """The bone whose length changes most over time (``std / mean``, averaged over samples)."""
+    lengths = LOCOMOTION.bone_lengths(positions)
+    drift = (lengths.std(axis=-2) / lengths.mean(axis=-2)).reshape(-1, lengths.shape[-1]).mean(0)
+    child = LOCOMOTION.bones[int(drift.argmax())][1]
+    return LOCOMOTION.names[child], float(drift.max())
+
+
+def report_glow(label: str, model) -> None:
+    nll, _ = comparison._nll(model, experiments.held_out_windows(comparison.TEST_WINDOW, FPS))
+    print(f"\n### {label} (foot_anchor={model.config.foot_anchor}): test NLL {nll:.1f} bits/frame\n")
+    print("| path, temperature | skating raw (cm/s) | finished (cm/s) | data's (cm/s) | raw / data | finished / data "
+          "| bone drift raw (%) | most-stretched bone: the joint it ends in, % | stepping, leg swing / data |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    entry = next(e for e in comparison.ENTRIES if e.name == "glow")
+    for path in ("walk", "run"):
+        walks = experiments.preset_walks(path, SECONDS_GLOW, FPS, N, lead_frames=comparison.PREFIX_FRAMES)
+        truth = walks[:, comparison.PREFIX_FRAMES:][:, :entry.window]
+        floor = contacts.planted_heights(to_positions(truth, FPS))
+        data = metrics.foot_skating(to_positions(truth, FPS), FPS, rest_height_m=floor)
+        for t in GLOW_TEMPERATURES:
+            samples = model.generate(truth[0, :, N_POSE:], n=N, temperature=t).features
+            positions = to_positions(samples, FPS)
+            raw = metrics.foot_skating(positions, FPS, rest_height_m=floor)
+            done = contacts.finish(samples, FPS, planted_height_m=floor)
+            finished = metrics.foot_skating(done.positions, FPS, rest_height_m=floor)
+            bone, stretch = worst_bone(positions)
+            stepping = metrics.stepping_speed(samples, FPS).mean() / metrics.stepping_speed(truth, FPS).mean()
+            swing = metrics.leg_swing(samples) / metrics.leg_swing(truth)
+            print(f"| {path}, τ = {t:g} | {100 * raw:.1f} | {100 * finished:.1f} | {100 * data:.1f} | {raw / data:.1f} "
+                  f"| {finished / data:.2f} | {100 * metrics.bone_length_drift(positions):.1f} | {bone} {100 * stretch:.0f} "
+                  f"| {stepping:.2f}, {swing:.2f} |")
+    sweep = experiments.temperature_sweep(model, experiments.held_out_windows(model.config.window, FPS),
+                                          GLOW_TEMPERATURES)
+    print("\nnotebook 05's claim (moves like the data, held-out windows): "
+          + "; ".join(f"τ = {t:g}: {verdict_line(v)}" for t, v in sweep.items()))
+
+
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("checkpoints", nargs="*", help="MoGlow checkpoints to compare (e.g. trained with foot_anchor)")
+    parser.add_argument("checkpoints", nargs="*",
+                        help="MoGlow or Glow checkpoints to compare (e.g. trained with foot_anchor)")
     args = parser.parse_args(argv)
-    if "moglow" in pretrained.available():
+    models = {path: training.load_checkpoint(path).model.eval() for path in args.checkpoints}
+    glows = [path for path, model in models.items() if isinstance(model, Glow)]
+    if (len(glows) < len(models) or not models) and "moglow" in pretrained.available():
         report("shipped MoGlow", pretrained.load("moglow"))
-    for path in args.checkpoints:
-        report(path, training.load_checkpoint(path).model.eval())
+    if glows and "glow" in pretrained.available():
+        report_glow("shipped Glow", pretrained.load("glow"))
+    for path, model in models.items():
+        (report_glow if isinstance(model, Glow) else report)(path, model)
 
 
 if __name__ == "__main__":

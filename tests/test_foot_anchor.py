@@ -1,5 +1,6 @@
-"""MoGlow's foot_anchor: the feet's x, z modelled less where they would be had they stayed
-planted since the previous frame; an exact shift by the conditioning."""
+"""foot_anchor: the feet's x, z modelled less where they would be had they stayed planted
+since the previous frame. MoGlow's is an exact shift by the conditioning; Glow's a
+triangular map over the window with ones on its diagonal, also exact."""
 from dataclasses import replace
 
 import numpy as np
@@ -7,7 +8,10 @@ import pytest
 import torch
 
 from motionlab import contacts, data, training
-from motionlab.models.moglow import _FOOT_XZ, MoGlow, MoGlowConfig
+from motionlab.models.anchor import FOOT_XZ as _FOOT_XZ
+from motionlab.models.flows import ActNorm, ConvCouplingNet
+from motionlab.models.glow import Glow, GlowConfig
+from motionlab.models.moglow import MoGlow, MoGlowConfig
 from motionlab.skeleton import FEET
 
 SMALL = MoGlowConfig(window=16, history=4, steps=3, hidden=16)
@@ -139,3 +143,92 @@ def test_errors_name_foot_anchor(walker):
         MoGlowConfig(foot_anchor=True, constant_features=(0, 2, 3 * FEET[0]))
     with pytest.raises(ValueError, match="foot_anchor"):
         MoGlow(ANCHORED).loss(windows(*walker))                           # no normaliser to measure m in
+
+
+# -- Glow: the previous frame is modelled, so the map is triangular over the window -----
+
+GLOW = GlowConfig(window=16, levels=2, steps=2, hidden=16)
+GLOW_ANCHORED = replace(GLOW, foot_anchor=True)
+
+
+def glow_like(config, normalizer, x, seed=0):
+    """A Glow whose couplings and ActNorms are moved off their start, initialised on ``x``."""
+    torch.manual_seed(seed)
+    model = Glow(config)
+    model.normalizer = normalizer
+    with torch.no_grad():
+        for module in model.modules():
+            if isinstance(module, (ActNorm, ConvCouplingNet)):
+                for p in module.parameters():
+                    p.add_(0.05 * torch.randn_like(p))
+    model.log_likelihood(x)                                      # ActNorm's data-dependent start
+    return model.eval()
+
+
+def test_glow_the_window_map_is_triangular_with_a_unit_diagonal(walker):
+    features, normalizer = walker
+    model = Glow(GLOW_ANCHORED)
+    model.normalizer = normalizer
+    x = windows(features, normalizer, n=1, frames=8)
+    values, control = model.split_features(x)
+    jacobian = torch.autograd.functional.jacobian(
+        lambda v: model.anchor_window(v.view_as(values), control, -1.0).flatten(), values.flatten())
+    assert torch.equal(torch.triu(jacobian, 1), torch.zeros_like(jacobian))     # frame t sees frames <= t only
+    assert torch.equal(torch.diagonal(jacobian), torch.ones(jacobian.shape[0]))
+    assert torch.slogdet(jacobian.double()).logabsdet.abs() < 1e-9
+    assert (jacobian - torch.eye(jacobian.shape[0])).abs().max() > 0.1         # and it does shift the feet
+
+
+def test_glow_the_likelihood_is_the_plain_flows_of_the_window_less_m(walker):
+    # every frame but the first less m, computed here in metres from the frame before it
+    features, normalizer = walker
+    x = windows(features, normalizer)
+    plain = glow_like(GLOW, normalizer, x)
+    anchored = Glow(GLOW_ANCHORED)
+    anchored.load_state_dict(plain.state_dict())
+    anchored.normalizer = normalizer
+    anchored.eval()
+    in_units = torch.tensor(normalizer.denormalize(x.double().numpy()))
+    previous, control = in_units[:, :-1, list(_FOOT_XZ)], in_units[:, :-1, -3:]
+    theta = control[..., 2:3] / FPS
+    px, pz = previous[..., :4] - control[..., 1:2] / FPS, previous[..., 4:] - control[..., 0:1] / FPS
+    m = torch.cat([torch.cos(theta) * px - torch.sin(theta) * pz, torch.sin(theta) * px + torch.cos(theta) * pz], -1)
+    shifted = x.clone()
+    shifted[:, 1:, list(_FOOT_XZ)] = ((in_units[:, 1:, list(_FOOT_XZ)] - m) / torch.tensor(
+        normalizer.std[list(_FOOT_XZ)])).float()
+    assert torch.allclose(anchored.log_likelihood(x), plain.log_likelihood(shifted), atol=1e-3)
+    assert not torch.allclose(plain.log_likelihood(x), plain.log_likelihood(shifted), atol=1e-3)
+    assert np.isfinite(anchored.nll(x, normalizer)["bits/frame"])
+
+
+def test_glow_sampling_inverts_the_likelihoods_map(walker):
+    features, normalizer = walker
+    x = windows(features, normalizer)
+    model = glow_like(GLOW_ANCHORED, normalizer, x)
+    z = torch.randn(3, 16 * model.n_modelled, generator=torch.Generator().manual_seed(1))
+    sampled = model.decode(z, x[..., -3:])
+    back, _ = model.encode(sampled)
+    assert torch.allclose(back, z, atol=1e-3)
+    out = model.generate(features[:16, -3:], n=2, temperature=0.5)
+    assert out.features.shape == (2, 16, 66) and np.isfinite(out.features).all()
+
+
+def test_glow_a_checkpoint_loads_back_with_its_shift(walker, tmp_path):
+    features, normalizer = walker
+    x = windows(features, normalizer)
+    model = glow_like(GLOW_ANCHORED, normalizer, x)
+    training.save_checkpoint(tmp_path / "anchored.pt", model, normalizer=normalizer, description={})
+    loaded = training.load_checkpoint(tmp_path / "anchored.pt").model.eval()
+    assert loaded.config.foot_anchor and torch.allclose(loaded.log_likelihood(x), model.log_likelihood(x))
+    assert "foot_anchor" in loaded.describe()[-1] and "foot_anchor" not in " ".join(Glow(GLOW).describe())
+
+
+def test_glow_errors_name_foot_anchor(walker):
+    with pytest.raises(ValueError, match="foot_anchor: the shift is a function of the control"):
+        GlowConfig(foot_anchor=True, conditional=False)
+    with pytest.raises(ValueError, match="foot_anchor"):
+        GlowConfig(foot_anchor=True, constant_features=(0, 2, 3 * FEET[1] + 2))
+    with pytest.raises(ValueError, match="foot_anchor"):
+        GlowConfig(foot_anchor="yes")
+    with pytest.raises(ValueError, match="foot_anchor"):
+        Glow(GLOW_ANCHORED).loss(windows(*walker))                        # no normaliser to measure m in

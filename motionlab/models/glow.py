@@ -26,6 +26,14 @@ log-likelihood in nats per modelled value of those normalised features. :meth:`G
 reports nats and bits per frame, in normalised units, or in the data's own units
 (metres, m/s, rad/s) when given the normaliser: ``ln p_data(x) = ln p(x / σ) - Σ_d ln σ_d``
 per frame (the normalisation's Jacobian).
+
+**Feet anchored where they were planted** (``foot_anchor``, off by default; as
+:class:`~motionlab.models.moglow.MoGlowConfig`'s). The flow models, for the ``x`` and ``z``
+of each ankle and toe in every frame but the first, the value less where that joint would
+be had it stayed put since the previous frame (:mod:`motionlab.models.anchor`). Here the
+previous frame is part of the window the flow models, not conditioning: the map is
+triangular over time with ones on its diagonal, so its log-determinant is 0 and the
+likelihood stays exact; sampling inverts it frame by frame.
 """
 from __future__ import annotations
 
@@ -37,6 +45,8 @@ import torch
 
 from .. import checks
 from .base import Generated, check_tensor, generator_for, per_frame_nll
+from . import anchor
+from .anchor import FootAnchor
 from .flows import ConvCouplingNet, GaussianPrior, MotionFlow, MultiScaleFlow, henter_schedule
 from .modelcard import ModelCard
 
@@ -58,6 +68,9 @@ class GlowConfig:
         conditional: model the pose given the control (eq. 10), else all features.
         constant_features: features that are 0 in every frame (after normalisation) and
             are left out of the flow: by default the hips' root-local ``x`` and ``z``.
+        foot_anchor: model the feet's ``x`` and ``z`` less where they would be had they
+            stayed planted since the previous frame (:mod:`motionlab.models.anchor`); needs
+            ``conditional``, the locomotion features and the model's normaliser.
     """
 
     n_features: int = 66
@@ -70,6 +83,7 @@ class GlowConfig:
     width: int = 3
     conditional: bool = True
     constant_features: tuple[int, ...] = (0, 2)
+    foot_anchor: bool = False
 
     def __post_init__(self):
         checks.config(self)
@@ -90,6 +104,9 @@ class GlowConfig:
             raise ValueError(f"constant_features: {bad} are not modelled features (0 .. {described - 1})")
         if described - len(set(self.constant_features)) < 2:
             raise ValueError("constant_features: fewer than 2 features would be left to model")
+        if self.foot_anchor and not self.conditional:
+            raise ValueError("foot_anchor: the shift is a function of the control; needs conditional=True")
+        anchor.check_config(self)
 
     @classmethod
     def paper(cls, **changes) -> "GlowConfig":
@@ -98,7 +115,7 @@ class GlowConfig:
         return replace(cls(levels=4, steps=32, hidden=512, window=80, fps=20.0, conditional=True), **changes)
 
 
-class Glow(MotionFlow):
+class Glow(FootAnchor, MotionFlow):
     """The fixed-length sequence Glow of §3.3-3.4.
 
     Batches are normalised feature windows ``(batch, frames, n_features)``, ``frames`` a
@@ -117,6 +134,7 @@ class Glow(MotionFlow):
                                    partial(ConvCouplingNet, hidden=config.hidden, width=config.width),
                                    cond_channels=config.n_control if config.conditional else 0)
         self.prior = GaussianPrior()
+        self._init_foot_anchor(config)
 
     # -- data in and out -----------------------------------------------------------------
 
@@ -139,6 +157,8 @@ class Glow(MotionFlow):
     def encode(self, batch: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """``(z, logdet)``: the latent ``(batch, frames * n_modelled)`` and ``Σ ln|det J|`` ``(batch,)``."""
         x, cond = self.split_features(batch)
+        if self.config.foot_anchor:          # triangular, ones on the diagonal: log-determinant 0
+            x = self.anchor_window(x, cond, -1.0)
         return self.flow(x, cond)
 
     def log_likelihood(self, batch: torch.Tensor) -> torch.Tensor:
@@ -181,7 +201,12 @@ class Glow(MotionFlow):
             raise ValueError(f"z: expected (n, frames * {self.n_modelled}), got {tuple(z.shape)}")
         frames = z.shape[1] // self.n_modelled
         control = self._check_control(control, z.shape[0], frames)
-        return self.join_features(self.flow.inverse(z, control), control)
+        return self.join_features(self._inverse(z, control), control)
+
+    def _inverse(self, z: torch.Tensor, control: torch.Tensor | None) -> torch.Tensor:
+        """The modelled values of latents ``z``: the flow inverted, then the anchoring."""
+        x = self.flow.inverse(z, control)
+        return self.anchor_window(x, control, 1.0) if self.config.foot_anchor else x
 
     def _check_control(self, control, n: int, frames: int | None):
         c = self.config.n_control
@@ -223,7 +248,7 @@ class Glow(MotionFlow):
         self.flow._check_frames("frames", frames)
         z = self.prior.sample((n, frames * self.n_modelled), temperature, generator,
                               device=self.modelled.device)
-        return self.join_features(self.flow.inverse(z, control), control)
+        return self.join_features(self._inverse(z, control), control)
 
     def generate(self, control=None, *, frames=None, prefix=None, n=1, temperature=1.0, seed=0) -> Generated:
         """``n`` windows; see :mod:`motionlab.models.base`.
@@ -254,6 +279,9 @@ class Glow(MotionFlow):
                 line += f", conditioned on {shape['cond_channels']} control channels"
             line += f"; then {shape['split']} channels split off to z" if shape["split"] else "; all to z"
             lines.append(line)
+        if self.config.foot_anchor:
+            lines.append("before the flow: the feet's x, z less where they would be had they stayed planted "
+                         "(foot_anchor: triangular over the window, log-determinant 0)")
         return lines
 
 

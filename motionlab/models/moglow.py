@@ -64,7 +64,6 @@ from contextlib import contextmanager
 from dataclasses import dataclass, replace
 from functools import partial
 
-import numpy as np
 import torch
 from torch import nn
 
@@ -73,11 +72,9 @@ from .. import checks
 from .base import Generated, eval_mode, generator_for, per_frame_nll
 from .flows import (FlowSequence, FlowStep, GaussianPrior, MLPCouplingNet, MotionFlow, henter_schedule,
                     output_layer)
+from . import anchor
+from .anchor import FootAnchor
 from .modelcard import ModelCard
-from ..skeleton import FEET, LOCOMOTION
-
-# the root-local x and z features of the ankles and toes (FEET order), which foot_anchor shifts
-_FOOT_XZ = tuple(3 * j + axis for axis in (0, 2) for j in FEET)
 
 
 @dataclass(frozen=True)
@@ -140,11 +137,7 @@ class MoGlowConfig:
         bad = [i for i in self.constant_features if not 0 <= i < n_pose]
         if bad:
             raise ValueError(f"constant_features: {bad} are not pose features (0 .. {n_pose - 1})")
-        if self.foot_anchor and (n_pose, self.n_control) != (3 * LOCOMOTION.n_joints, 3):
-            raise ValueError(f"foot_anchor: needs the locomotion features ({3 * LOCOMOTION.n_joints} pose values "
-                             f"and 3 controls), got {n_pose} and {self.n_control}")
-        if self.foot_anchor and set(self.constant_features) & set(_FOOT_XZ):
-            raise ValueError("foot_anchor: the feet's x and z cannot be constant_features")
+        anchor.check_config(self)
 
     @classmethod
     def paper(cls, **changes) -> "MoGlowConfig":
@@ -190,7 +183,7 @@ class LSTMCouplingNet(nn.Module):
         return output_layer(self.output, hidden, lo)            # float32 under mixed precision
 
 
-class MoGlow(MotionFlow):
+class MoGlow(FootAnchor, MotionFlow):
     """The autoregressive MoGlow of §4.2 (or its Markov variant, ``recurrent=False``).
 
     Batches are normalised feature windows ``(batch, frames, n_features)`` with
@@ -213,10 +206,7 @@ class MoGlow(MotionFlow):
         self.flow = FlowSequence(FlowStep(self.n_modelled, network, self.cond_channels)
                                  for _ in range(config.steps))
         self.prior = GaussianPrior()
-        if config.foot_anchor:              # the feet's x then z columns among the modelled values
-            modelled = [i for i in range(config.n_features - config.n_control) if i not in config.constant_features]
-            self.register_buffer("foot_columns", torch.tensor([modelled.index(i) for i in _FOOT_XZ]),
-                                 persistent=False)
+        self._init_foot_anchor(config)
 
     # -- data in and out -----------------------------------------------------------------
 
@@ -274,50 +264,6 @@ class MoGlow(MotionFlow):
         and the new one ``(batch, τ + 1, n_control)``; laid out as :meth:`conditioning`
         (the caller scales the history by :attr:`history_scale`)."""
         return torch.cat([history.flatten(1), controls.flatten(1)], dim=1)[:, None]
-
-    # -- feet anchored where they were planted (foot_anchor) ----------------------------
-
-    def anchor_units(self) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
-        """The model's normaliser where :meth:`anchor` needs it, float32 on the model's
-        device: the mean and std of the feet's ``x, z`` features (``(8,)``, :data:`_FOOT_XZ`
-        order) and of the control (``(3,)``)."""
-        if self.normalizer is None:
-            raise ValueError("foot_anchor: the shift is measured in the data's units and needs the model's "
-                             "normaliser; train with training.train on a MotionData (it sets model.normalizer) "
-                             "or set model.normalizer")
-        columns = list(_FOOT_XZ) + list(range(self.config.n_features)[self.control])
-        mean, std = (torch.as_tensor(np.asarray(values)[columns], dtype=torch.float32, device=self.modelled.device)
-                     for values in (self.normalizer.mean, self.normalizer.std))
-        n = len(_FOOT_XZ)
-        return mean[:n], std[:n], mean[n:], std[n:]
-
-    def anchor(self, previous: torch.Tensor, control: torch.Tensor, units=None) -> torch.Tensor:
-        """``m``: where each ankle and toe would be in this frame's root frame had it stayed
-        planted in the world since the previous frame, ``(..., 8)`` normalised (the feet's
-        ``x`` then ``z``, :data:`FEET` order), from the previous frame's modelled pose
-        ``(..., n_modelled)`` and its control ``(..., n_control)`` (normalised).
-
-        In the data's units, with ``θ = turning / fps`` and ``s = (sideways, forward) / fps``
-        the previous frame's step (:func:`motionlab.contacts.foot_velocity` inverted, world
-        velocity 0): ``m = R(θ)^-1 (p_{t-1} - s)``, ``R(θ)^-1 = [[cos θ, -sin θ], [sin θ, cos θ]]``
-        on ``(x, z)``. ``units``: :meth:`anchor_units`, if already at hand."""
-        foot_mean, foot_std, control_mean, control_std = self.anchor_units() if units is None else units
-        p = previous[..., self.foot_columns].float() * foot_std + foot_mean               # metres
-        c = control.float() * control_std + control_mean                                  # m/s, rad/s
-        fps = self.config.fps
-        theta = c[..., 2:3] / fps
-        x, z = p[..., :len(FEET)] - c[..., 1:2] / fps, p[..., len(FEET):] - c[..., 0:1] / fps
-        cos, sin = torch.cos(theta), torch.sin(theta)
-        m = torch.cat([cos * x - sin * z, sin * x + cos * z], dim=-1)
-        return ((m - foot_mean) / foot_std).to(previous.dtype)
-
-    def _anchored(self, poses: torch.Tensor, previous: torch.Tensor, control: torch.Tensor,
-                  sign: float, units=None) -> torch.Tensor:
-        """``poses`` with ``sign · m`` added to the feet's ``x, z`` (-1: the flow's values
-        from the poses; +1: the poses from the flow's values)."""
-        out = poses.clone()
-        out[..., self.foot_columns] += sign * self.anchor(previous, control, units)
-        return out
 
     # -- likelihood (eq. 16) -------------------------------------------------------------
 
