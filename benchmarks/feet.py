@@ -3,9 +3,10 @@ lengths, then the feet locked: ``motionlab.contacts``), walking and running.
 
     python benchmarks/feet.py                              # built-in bodies on the walk and run paths
     python benchmarks/feet.py --data ../shared/mocap/cmu   # also the 4-s windows of real clips
+    python benchmarks/feet.py --paths side-step circle     # other preset paths
 
 Section 1. Every model of notebook 08 (``comparison.ENTRIES``) follows the built-in walk
-(1.5 m/s) and run (2.2 m/s) presets for 10 s, from four held-out bodies' standing
+(1.5 m/s) and run (2.2 m/s) presets (or ``--paths``: any of ``synthetic.PRESETS``) for 10 s, from four held-out bodies' standing
 half-second; the four bodies on the same paths are the data's rows. A model without a
 control draws freely (the VAE: 4-s windows; DFN continues the standing frames); Glow draws
 the path's first 4-s window. The flows are measured at every temperature (and their
@@ -35,7 +36,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from motionlab import comparison, contacts, experiments, metrics
+from motionlab import comparison, contacts, experiments, metrics, synthetic
 from motionlab.representation import N_POSE, to_positions
 
 FPS = comparison.FPS
@@ -43,6 +44,8 @@ SECONDS = 10.0
 PATHS = ("walk", "run")
 TEMPERATURES = (0.0, 0.25, 0.5, 0.75, 1.0)
 N = 4
+MIN_SWING_M = 0.05
+"""Below this leg swing of the data's (a side-step's) the swing ratio is not printed."""
 
 
 def measures(features: np.ndarray, data: np.ndarray, floor: np.ndarray, raw: np.ndarray | None = None) -> dict:
@@ -51,20 +54,22 @@ def measures(features: np.ndarray, data: np.ndarray, floor: np.ndarray, raw: np.
     positions, data_positions = to_positions(features, FPS), to_positions(data, FPS)
     raw_positions = positions if raw is None else to_positions(raw, FPS)
     skating = metrics.foot_skating(positions, FPS, rest_height_m=floor)
+    data_swing = metrics.leg_swing(data)           # along the facing direction: about none on a side-step
     return {"skating": 100 * skating,
             "x data": skating / metrics.foot_skating(data_positions, FPS, rest_height_m=floor),
             "GMD": metrics.skating_ratio(positions, FPS, floor),
             "stepping": metrics.stepping_speed(features, FPS, smooth_s=0.1)[:, int(FPS):].mean()
             / metrics.stepping_speed(data, FPS, smooth_s=0.1)[:, int(FPS):].mean(),
-            "swing": metrics.leg_swing(features) / metrics.leg_swing(data),
+            "swing": metrics.leg_swing(features) / data_swing if data_swing > MIN_SWING_M else np.nan,
             "drift": 100 * metrics.bone_length_drift(positions),
             "acc": metrics.foot_acceleration(positions, FPS) / max(metrics.foot_acceleration(data_positions, FPS),
                                                                    metrics.foot_acceleration(raw_positions, FPS))}
 
 
 def line(label: str, m: dict, reach: float | None = None) -> str:
+    swing = "—" if np.isnan(m["swing"]) else f"{m['swing']:.2f}"
     return (f"| {label} | {m['skating']:.1f} | {m['x data']:.2f} | {m['GMD']:.3f} | {m['stepping']:.2f} "
-            f"| {m['swing']:.2f} | {m['drift']:.2f} | {m['acc']:.2f} | "
+            f"| {swing} | {m['drift']:.2f} | {m['acc']:.2f} | "
             + ("" if reach is None else f"{100 * reach:.0f} %") + " |")
 
 
@@ -83,14 +88,14 @@ def samples_on(path: str, models: dict) -> tuple[np.ndarray, dict]:
     return truth, out
 
 
-def section_1(models: dict) -> dict:
-    print("## 1. Raw and finished (bones fitted, feet locked), on the built-in walk and run paths "
+def section_1(models: dict, paths=PATHS) -> dict:
+    print(f"## 1. Raw and finished (bones fitted, feet locked), on the built-in {' and '.join(paths)} paths "
           f"({SECONDS:g} s, {N} samples; the data: {N} held-out bodies)\n")
     print("| model, path, temperature | skating (cm/s) | / data's | GMD ratio | stepping / data | leg swing / data "
           "| bone drift (%) | foot acc. p99 / max(data, raw) | IK out of reach |")
     print("|---|---|---|---|---|---|---|---|---|")
     kept = {}
-    for path in PATHS:
+    for path in paths:
         truth, generated = samples_on(path, models)
         floor = contacts.planted_heights(to_positions(truth, FPS))
         print(line(f"**data**, {path}", measures(truth, truth, floor)))
@@ -152,9 +157,12 @@ def section_3(models: dict, folder: str) -> None:
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--data", default=None, help="a folder of .bvh / .amc files for section 3")
+    parser.add_argument("--paths", nargs="+", default=PATHS, choices=synthetic.PRESETS, metavar="PATH",
+                        help=f"preset paths for section 1 (default: {' '.join(PATHS)}; any of "
+                             f"{', '.join(synthetic.PRESETS)})")
     args = parser.parse_args(argv)
     models = comparison.load_models()
-    kept = section_1(models)
+    kept = section_1(models, args.paths)
     section_2(kept)
     if args.data:
         section_3(models, args.data)
