@@ -4,6 +4,8 @@ bones and the claims.
 
     python -m motionlab.train moglow --synthetic-clips 200 --epochs 60 --lr 3e-3 --batch-size 32 --half \\
         --set foot_anchor=true --out data/cache/moglow_foot_anchor.pt     # the shipped recipe, anchored
+    python -m motionlab.train moglow --synthetic-clips 200 --epochs 60 --lr 3e-3 --batch-size 32 --half \\
+        --set foot_anchor=true anchor_conditioning=true --out data/cache/moglow_anchor_cond.pt  # m seen too
     python -m motionlab.train glow --synthetic-clips 200 --stride 1.0 --epochs 20 --lr 2e-3 --batch-size 32 \\
         --half --set foot_anchor=true --out data/cache/glow_foot_anchor.pt  # Glow's shipped recipe, anchored
     python benchmarks/foot_anchor.py data/cache/moglow_foot_anchor.pt data/cache/glow_foot_anchor.pt

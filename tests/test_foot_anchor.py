@@ -145,6 +145,46 @@ def test_errors_name_foot_anchor(walker):
         MoGlow(ANCHORED).loss(windows(*walker))                           # no normaliser to measure m in
 
 
+SEEN = replace(ANCHORED, anchor_conditioning=True)
+
+
+def test_anchor_conditioning_gives_the_networks_m_undropped(walker):
+    features, normalizer = walker
+    model = trained_like(SEEN, normalizer)
+    assert model.cond_channels == MoGlow(ANCHORED).cond_channels + 8
+    x = windows(features, normalizer)
+    poses, controls = x[..., model.modelled], x[..., model.control]
+    m = model.anchor(poses[:, 3:-1], controls[:, 3:-1])
+    model.train()
+    torch.manual_seed(0)
+    dropped = model.conditioning(poses, controls, drop=True)
+    assert torch.equal(dropped[..., -8:], m)                        # the history is dropped, m never
+    assert (dropped[..., :-8] == 0).float().mean() > 0.5
+    model.eval()
+    assert torch.equal(model.conditioning(poses, controls)[..., -8:], m)   # nor scaled
+    assert "anchor_conditioning" in model.describe()[-1]
+
+
+def test_anchor_conditioning_samples_stream_and_likelihood_agree(walker):
+    features, normalizer = walker
+    model = trained_like(SEEN, normalizer)
+    x = windows(features, normalizer)
+    history, control = x[:, :4], x[:, 4:, -3:]
+    noise = torch.randn(3, 12, 61, generator=torch.Generator().manual_seed(1))
+    sampled = model.sample(control, history, temperature=1.0, noise=noise)
+    window = torch.cat([history, sampled], dim=1)
+    poses, controls = window[..., model.modelled], window[..., model.control]
+    with torch.no_grad():
+        target = model._anchored(poses[:, 4:], poses[:, 3:-1], controls[:, 3:-1], -1.0)
+        z, _ = model.flow(target, model.conditioning(poses, controls))
+    assert torch.allclose(z, noise, atol=1e-3)
+    assert torch.allclose(model.stream(history, temperature=1.0).run(control, noise), sampled, atol=1e-4)
+    with pytest.raises(ValueError, match="previous"):
+        model.frame_conditioning(poses[:, :4], controls[:, :5])
+    with pytest.raises(ValueError, match="anchor_conditioning"):
+        MoGlowConfig(anchor_conditioning=True)
+
+
 # -- Glow: the previous frame is modelled, so the map is triangular over the window -----
 
 GLOW = GlowConfig(window=16, levels=2, steps=2, hidden=16)

@@ -289,7 +289,8 @@ class MoGlowStream:
             elif tuple(noise.shape) != shape:
                 raise ValueError(f"noise: expected {shape}, got {tuple(noise.shape)}")
             controls = torch.cat([self.controls, control[:, None]], dim=1)       # c_{t-τ .. t}
-            cond = model.frame_conditioning(self._history_scale * self.poses, controls)[:, 0]
+            cond = model.frame_conditioning(self._history_scale * self.poses, controls, self.poses[:, -1],
+                                            self._anchor_units)[:, 0]
             # the conditioning's part of every coupling's first-layer gates, in one product
             # (one per coupling for several streams on a CPU)
             cond = cond.to(self.weights)

@@ -105,6 +105,9 @@ class MoGlowConfig:
         foot_anchor: model the feet's ``x`` and ``z`` less where they would be had they
             stayed planted since the previous frame (:meth:`MoGlow.anchor`); needs the
             model's normaliser (``model.normalizer``, set by :func:`motionlab.training.train`).
+        anchor_conditioning: with ``foot_anchor``, the coupling networks also see ``m``
+            (where each foot would be had it stayed planted: where it is), never dropped,
+            so that they can bring a foot that drifted from the body back.
     """
 
     n_features: int = 66
@@ -120,6 +123,7 @@ class MoGlowConfig:
     scale_history: bool = True
     constant_features: tuple[int, ...] = (0, 2)
     foot_anchor: bool = False
+    anchor_conditioning: bool = False
 
     def __post_init__(self):
         checks.config(self, probability_fields=("dropout",))
@@ -138,6 +142,8 @@ class MoGlowConfig:
         if bad:
             raise ValueError(f"constant_features: {bad} are not pose features (0 .. {n_pose - 1})")
         anchor.check_config(self)
+        if self.anchor_conditioning and not self.foot_anchor:
+            raise ValueError("anchor_conditioning: the networks see the feet's anchor m; needs foot_anchor=True")
 
     @classmethod
     def paper(cls, **changes) -> "MoGlowConfig":
@@ -199,6 +205,8 @@ class MoGlow(FootAnchor, MotionFlow):
         self._set_layout(config, config.n_features - config.n_control)
         # the conditioning of frame t: τ previous poses, then the control of frames t-τ .. t
         self.cond_channels = config.history * self.n_modelled + (config.history + 1) * config.n_control
+        if config.anchor_conditioning:      # ... then m, where the feet would be had they stayed planted
+            self.cond_channels += len(anchor.FOOT_XZ)
         if config.recurrent:
             network = partial(LSTMCouplingNet, hidden=config.hidden, layers=config.lstm_layers)
         else:
@@ -241,7 +249,10 @@ class MoGlow(FootAnchor, MotionFlow):
         elif self.history_scale != 1.0:
             history = history * self.history_scale               # evaluation: the expected kept value
         controls = control.unfold(1, tau + 1, 1)                  # (batch, frames-τ, n_control, τ+1)
-        return torch.cat([history.transpose(2, 3).flatten(2), controls.transpose(2, 3).flatten(2)], dim=-1)
+        parts = [history.transpose(2, 3).flatten(2), controls.transpose(2, 3).flatten(2)]
+        if self.config.anchor_conditioning:                      # m from the true x_{t-1}, c_{t-1}
+            parts.append(self.anchor(poses[:, tau - 1:-1], control[:, tau - 1:-1]))
+        return torch.cat(parts, dim=-1)
 
     @property
     def history_scale(self) -> float:
@@ -257,13 +268,20 @@ class MoGlow(FootAnchor, MotionFlow):
         other.config = replace(self.config, scale_history=False)
         return other
 
-    @staticmethod
-    def frame_conditioning(history: torch.Tensor, controls: torch.Tensor) -> torch.Tensor:
+    def frame_conditioning(self, history: torch.Tensor, controls: torch.Tensor,
+                           previous: torch.Tensor | None = None, units=None) -> torch.Tensor:
         """The conditioning of one new frame, ``(batch, 1, cond_channels)``, from the ``τ``
         previous modelled poses ``(batch, τ, n_modelled)`` and the controls of those frames
         and the new one ``(batch, τ + 1, n_control)``; laid out as :meth:`conditioning`
-        (the caller scales the history by :attr:`history_scale`)."""
-        return torch.cat([history.flatten(1), controls.flatten(1)], dim=1)[:, None]
+        (the caller scales the history by :attr:`history_scale`). With
+        ``anchor_conditioning``, ``previous``: the last pose unscaled ``(batch, n_modelled)``,
+        for ``m`` (``units``: :meth:`anchor_units`, if at hand)."""
+        parts = [history.flatten(1), controls.flatten(1)]
+        if self.config.anchor_conditioning:
+            if previous is None:
+                raise ValueError("previous: an anchor_conditioning model needs the last pose, unscaled, for m")
+            parts.append(self.anchor(previous, controls[:, -2], units))
+        return torch.cat(parts, dim=1)[:, None]
 
     # -- likelihood (eq. 16) -------------------------------------------------------------
 
@@ -359,7 +377,8 @@ class MoGlow(FootAnchor, MotionFlow):
         controls = torch.cat([history[..., self.control], control], dim=1)
         with eval_mode(self), self.carrying_state():
             for t in range(frames):
-                cond = self.frame_conditioning(self.history_scale * poses[:, -tau:], controls[:, t:t + tau + 1])
+                cond = self.frame_conditioning(self.history_scale * poses[:, -tau:], controls[:, t:t + tau + 1],
+                                               poses[:, -1])
                 x = self.flow.inverse(temperature * noise[:, t:t + 1], cond)
                 if self.config.foot_anchor:
                     x = self._anchored(x, poses[:, -1:], controls[:, t + tau - 1:t + tau], 1.0)
@@ -414,7 +433,9 @@ class MoGlow(FootAnchor, MotionFlow):
                 f"{c.n_control})",
                 f"parameters: {weights:,} ({4 * weights / 1e6:.1f} MB as float32)"] + \
             (["feet's x, z modelled less where they would be had they stayed planted (foot_anchor)"]
-             if c.foot_anchor else [])
+             if c.foot_anchor else []) + \
+            ([f"the conditioning also holds m, where the feet would be had they stayed planted "
+              f"({len(anchor.FOOT_XZ)} values, anchor_conditioning)"] if c.anchor_conditioning else [])
 
 
 CARD = ModelCard("moglow", MoGlow, MoGlowConfig, schedule=henter_schedule(80_000, "autoregressive"))
