@@ -116,20 +116,28 @@ class Lab:
         from selenium.webdriver.support.ui import WebDriverWait
         return WebDriverWait(self.driver, timeout_s or self.timeout).until(condition, f"waiting for {what}")
 
-    def _click_prompt(self, index: int) -> None:
-        """Click cell ``index``'s prompt (selecting it); the page may still be re-drawing the
-        notebook, so a cell that went stale between finding and clicking is found again."""
-        from selenium.common.exceptions import StaleElementReferenceException
+    def click(self, find, what: str) -> None:
+        """Click the element ``find(driver)`` returns; the page may still be re-drawing, so an
+        element that went stale between finding and clicking, or that is not yet clickable
+        (laid out, uncovered), is found again until the timeout."""
+        from selenium.common.exceptions import (ElementClickInterceptedException, ElementNotInteractableException,
+                                                NoSuchElementException, StaleElementReferenceException)
 
-        def click(driver):
+        def attempt(driver):
             try:
-                cell = driver.find_elements("css selector", ".jp-Notebook .jp-Cell")[index]
-                driver.execute_script("arguments[0].scrollIntoView({block: 'center'});", cell)
-                cell.find_element("css selector", ".jp-InputArea-prompt").click()
+                element = find(driver)
+                driver.execute_script("arguments[0].scrollIntoView({block: 'center'});", element)
+                element.click()
                 return True
-            except (StaleElementReferenceException, IndexError):
+            except (StaleElementReferenceException, ElementNotInteractableException,
+                    ElementClickInterceptedException, NoSuchElementException, IndexError):
                 return False
-        self.wait_for(click, f"cell {index}'s prompt")
+        self.wait_for(attempt, what)
+
+    def _click_prompt(self, index: int) -> None:
+        """Click cell ``index``'s prompt (selecting it)."""
+        self.click(lambda d: d.find_elements("css selector", ".jp-Notebook .jp-Cell")[index].find_element(
+            "css selector", ".jp-InputArea-prompt"), f"cell {index}'s prompt")
 
     def run_cells(self, n: int) -> None:
         """Run the first ``n`` cells with Shift+Enter, as a student would."""
@@ -161,8 +169,8 @@ class Lab:
         # the kernel is idle before the widget's view is drawn: wait for the panel itself
         box = self.wait_for(lambda d: (d.find_elements("css selector", ".motionlab-live") or [None])[0],
                             "the live panel to be drawn")
-        box.find_element("xpath", ".//button[contains(., 'start')]").click()
-        box.find_element("css selector", "canvas").click()
+        self.click(lambda d: box.find_element("xpath", ".//button[contains(., 'start')]"), "the start button")
+        self.click(lambda d: box.find_element("css selector", "canvas"), "the panel's picture")
         time.sleep(1.0)
         return box
 
