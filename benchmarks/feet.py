@@ -4,6 +4,7 @@ lengths, then the feet locked: ``motionlab.contacts``), walking and running.
     python benchmarks/feet.py                              # built-in bodies on the walk and run paths
     python benchmarks/feet.py --data ../shared/mocap/cmu   # also the 4-s windows of real clips
     python benchmarks/feet.py --paths side-step circle     # other preset paths
+    python benchmarks/feet.py --data-bones                 # finished on the data's bone lengths
 
 Section 1. Every model of notebook 08 (``comparison.ENTRIES``) follows the built-in walk
 (1.5 m/s) and run (2.2 m/s) presets (or ``--paths``: any of ``synthetic.PRESETS``) for 10 s, from four held-out bodies' standing
@@ -88,7 +89,7 @@ def samples_on(path: str, models: dict) -> tuple[np.ndarray, dict]:
     return truth, out
 
 
-def section_1(models: dict, paths=PATHS) -> dict:
+def section_1(models: dict, paths=PATHS, data_bones: bool = False) -> dict:
     print(f"## 1. Raw and finished (bones fitted, feet locked), on the built-in {' and '.join(paths)} paths "
           f"({SECONDS:g} s, {N} samples; the data: {N} held-out bodies)\n")
     print("| model, path, temperature | skating (cm/s) | / data's | GMD ratio | stepping / data | leg swing / data "
@@ -98,10 +99,11 @@ def section_1(models: dict, paths=PATHS) -> dict:
     for path in paths:
         truth, generated = samples_on(path, models)
         floor = contacts.planted_heights(to_positions(truth, FPS))
+        body = contacts.body_lengths(to_positions(truth, FPS)) if data_bones else None
         print(line(f"**data**, {path}", measures(truth, truth, floor)))
         for (label, t), features in generated.items():
             data = truth[:, :features.shape[1]]
-            done = contacts.finish(features, FPS, planted_height_m=floor)
+            done = contacts.finish(features, FPS, planted_height_m=floor, bone_lengths=body)
             print(line(f"{label}, {path}, τ = {t:g}", measures(features, data, floor)))
             print(line(f"{label}, {path}, τ = {t:g}, finished", measures(done.features, data, floor, features),
                        done.lock.out_of_reach))
@@ -160,9 +162,12 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--paths", nargs="+", default=PATHS, choices=synthetic.PRESETS, metavar="PATH",
                         help=f"preset paths for section 1 (default: {' '.join(PATHS)}; any of "
                              f"{', '.join(synthetic.PRESETS)})")
+    parser.add_argument("--data-bones", action="store_true",
+                        help="finish every sample on the data's bone lengths (contacts.body_lengths of the "
+                             "data's bodies) instead of its own median ones")
     args = parser.parse_args(argv)
     models = comparison.load_models()
-    kept = section_1(models, args.paths)
+    kept = section_1(models, args.paths, args.data_bones)
     section_2(kept)
     if args.data:
         section_3(models, args.data)

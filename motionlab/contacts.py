@@ -46,7 +46,7 @@ from .skeleton import FEET, LOCOMOTION, Skeleton
 
 __all__ = ["APPROACH_HEIGHT", "APPROACH_S", "BLEND_S", "BODY_FRACTION", "CLEAN_S", "CONTACT_HEIGHT_M",
            "CONTACT_SPEED_MS", "FEET", "FOLLOW", "LEGS", "LOW_FADE", "PIVOT_BEND", "PLANTED_HEIGHT_M", "REACH_SLACK_M",
-           "RELEASE", "RELEASE_S", "FootLock", "Finished", "Locked", "approach_shift", "contact_labels",
+           "RELEASE", "RELEASE_S", "FootLock", "Finished", "Locked", "approach_shift", "body_lengths", "contact_labels",
            "contact_velocity_loss", "detect", "finish", "fit_bones", "foot_velocity", "lock", "lock_feet",
            "planted_heights", "planted_speed", "two_bone_ik"]
 
@@ -464,6 +464,14 @@ def fit_bones(positions, lengths=None, keep_feet: bool = True, skeleton: Skeleto
     return out
 
 
+def body_lengths(positions, skeleton: Skeleton = LOCOMOTION) -> np.ndarray:
+    """The bone lengths of the body in ``positions`` ``(..., frames, joints, 3)``: each bone's
+    median over every frame and clip, ``(joints - 1,)`` in ``skeleton.bones`` order, metres.
+    Of the data's bodies, what :func:`finish` puts a model's samples back onto."""
+    positions = checks.array(positions, "positions", (..., "frames", skeleton.n_joints, 3))
+    return np.median(skeleton.bone_lengths(positions).reshape(-1, len(skeleton.bones)), axis=0)
+
+
 # ----------------------------------------------------------------------------------------
 # From a model's features to a character: bones, then feet
 # ----------------------------------------------------------------------------------------
@@ -479,17 +487,24 @@ class Finished:
     lock: Locked | None
 
 
-def finish(features, fps: float, planted_height_m=None, fit: bool = True, lock_feet: bool = True) -> Finished:
+def finish(features, fps: float, planted_height_m=None, bone_lengths=None, fit: bool = True,
+           lock_feet: bool = True) -> Finished:
     """A model's features ``(..., frames, 66)`` (data units) made into a character: world
     positions (:func:`representation.to_positions`), every bone back to one length
     (:func:`fit_bones`, feet kept where they were), then the feet locked (:func:`lock`,
     contacts detected with the data's ``planted_height_m``). The root path is not touched,
-    so the finished features follow the same control."""
+    so the finished features follow the same control.
+
+    ``bone_lengths``: the bones every sample is put back onto, e.g. the data's
+    (:func:`body_lengths`); default each bone's median in the sample itself. The median is
+    too long for a model whose bones keep growing as it goes (an anchored MoGlow's shins),
+    but a sample's feet were placed by its own legs: on the data's, a lock holding them
+    needs legs of another length, and its planted feet move more (the README's feet section)."""
     features = checks.array(features, "features", (..., "frames", 3 * LOCOMOTION.n_joints + 3))
     fps = checks.rate(fps, "fps")
     positions = to_positions(features, fps)
     if fit:
-        positions = fit_bones(positions)
+        positions = fit_bones(positions, bone_lengths)
     locked = lock(positions, fps, planted_height_m=planted_height_m) if lock_feet else None
     positions = locked.positions if locked is not None else positions
     return Finished(along_path(positions, features[..., -3:], fps), positions, locked)

@@ -236,6 +236,28 @@ def test_finish_returns_features_on_the_same_path(walking):
     np.testing.assert_allclose(raw.features, features, atol=1e-9)
 
 
+def test_finish_puts_a_growing_shin_back_to_the_datas_length(walking):
+    # a sample whose shins lengthen as it goes (an anchored flow's feet drifting away): its
+    # own median is too long; given the data's body, the finished legs have the data's bones
+    body = contacts.body_lengths(walking)
+    assert body.shape == (len(LOCOMOTION.bones),) and (body > 0).all()
+    grown = walking.copy()
+    frames = walking.shape[1]
+    for knee, ankle, toe in ((LOCOMOTION.index(s + "Leg"), LOCOMOTION.index(s + "Foot"),
+                              LOCOMOTION.index(s + "ToeBase")) for s in ("Left", "Right")):
+        stretch = (0.3 * np.arange(frames) / frames)[None, :, None] * (walking[..., ankle, :] - walking[..., knee, :])
+        grown[..., ankle, :] += stretch
+        grown[..., toe, :] += stretch
+    features = np.stack([rep.to_features(p, FPS) for p in grown])
+    shins = [LOCOMOTION.bones.index((LOCOMOTION.index(s + "Leg"), LOCOMOTION.index(s + "Foot"))) for s in ("Left", "Right")]
+    own = LOCOMOTION.bone_lengths(contacts.finish(features, FPS, lock_feet=False).positions)[..., shins]
+    fitted = LOCOMOTION.bone_lengths(contacts.finish(features, FPS, bone_lengths=body, lock_feet=False).positions)
+    assert (own / body[shins]).mean() > 1.1                                  # its own median: too long
+    np.testing.assert_allclose(fitted, np.broadcast_to(body, fitted.shape), atol=1e-9)
+    with pytest.raises(ValueError, match="lengths"):
+        contacts.finish(features, FPS, bone_lengths=np.ones(3))
+
+
 # ---------------------------------------------------------------------------------------
 # the training term
 # ---------------------------------------------------------------------------------------
