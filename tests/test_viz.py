@@ -125,3 +125,25 @@ def test_show_leaves_still_frames_beside_the_player():
     assert still.format == "PNG" and still.size[1] == 3 * viz.STILL_PANEL_PX and shown.rows == 3
     with pytest.raises(ValueError, match="viz.animate"):
         viz.stills(object.__new__(type(anim)))
+
+
+def test_bone_length_plot_draws_a_growing_shin_and_the_datas():
+    from motionlab import representation as rep
+    from motionlab.skeleton import LOCOMOTION
+    walk = walker()
+    grown = walk.copy()
+    knee, ankle, toe = (LOCOMOTION.index(n) for n in ("RightLeg", "RightFoot", "RightToeBase"))
+    stretch = (0.5 * np.arange(len(walk)) / len(walk))[:, None] * (walk[:, ankle] - walk[:, knee])
+    grown[:, ankle] += stretch
+    grown[:, toe] += stretch
+    features = {name: rep.to_features(p, 20.0)[None] for name, p in (("rigid", walk), ("grown", grown))}
+    ax = viz.plot_bone_length(features, 20.0, "RightFoot", data=features["rigid"])
+    rigid, growing = (line.get_ydata() for line in ax.lines[:2])
+    shin = 100 * np.linalg.norm(walk[:, ankle] - walk[:, knee], axis=-1)    # cm, measured here
+    np.testing.assert_allclose(rigid, shin, atol=1e-6)
+    np.testing.assert_allclose(growing, shin * (1 + 0.5 * np.arange(len(walk)) / len(walk)), atol=1e-6)
+    assert ax.lines[2].get_ydata()[0] == pytest.approx(shin.mean())        # the data's, dashed
+    assert "RightLeg → RightFoot" in ax.get_ylabel()
+    plt.close(ax.figure)
+    with pytest.raises(ValueError, match="joint"):
+        viz.plot_bone_length(features, 20.0, "Hips")

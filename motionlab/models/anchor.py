@@ -16,9 +16,11 @@ The shift keeps maximum likelihood exact (its log-determinant is 0):
   triangular with ones on its diagonal: volume-preserving, and inverted frame by frame,
   ``x_t = y_t + m(x_{t-1}, c_{t-1})`` (:meth:`FootAnchor.anchor_window`).
 
-A foot is then wherever the sum of its steps puts it, and an error in a step stays in the
-sum: the legs stretch to hold the feet (the README's feet section has the measurements; the
-shipped anchored MoGlow's shins vary by 12-23 %, a laptop-size anchored Glow's by 20-44 %).
+The legs then stretch to hold the feet (the README's feet section has the measurements). In
+the shipped anchored MoGlow a held foot stays put while the knee goes on with the body, and
+the shin lengthens through each stance (notebook 06 draws it). In a laptop-size anchored
+Glow the window sums the steps, every error in a step stays in the sum, and the shins grow
+over the window.
 """
 from __future__ import annotations
 
