@@ -91,7 +91,8 @@ def samples_on(path: str, models: dict) -> tuple[np.ndarray, dict]:
 
 def section_1(models: dict, paths=PATHS, data_bones: bool = False) -> dict:
     print(f"## 1. Raw and finished (bones fitted, feet locked), on the built-in {' and '.join(paths)} paths "
-          f"({SECONDS:g} s, {N} samples; the data: {N} held-out bodies)\n")
+          f"({SECONDS:g} s, {N} samples; the data: {N} held-out bodies"
+          + ("; finished on the data's bone lengths" if data_bones else "") + ")\n")
     print("| model, path, temperature | skating (cm/s) | / data's | GMD ratio | stepping / data | leg swing / data "
           "| bone drift (%) | foot acc. p99 / max(data, raw) | IK out of reach |")
     print("|---|---|---|---|---|---|---|---|---|")

@@ -50,27 +50,45 @@ def verdict_line(verdict) -> str:
     return "holds" if verdict else "fails: " + "; ".join(verdict.failures)
 
 
-def report(label: str, model) -> None:
+def worst_bone(positions: np.ndarray) -> tuple[str, float]:
+    """The bone whose length changes most over time (``std / mean``, averaged over samples)."""
+    lengths = LOCOMOTION.bone_lengths(positions)
+    drift = (lengths.std(axis=-2) / lengths.mean(axis=-2)).reshape(-1, lengths.shape[-1]).mean(0)
+    child = LOCOMOTION.bones[int(drift.argmax())][1]
+    return LOCOMOTION.names[child], float(drift.max())
+
+
+def header(label: str, model, last: str) -> None:
+    """The model's test NLL, then the head of its feet table (``last``: the final column)."""
     nll, _ = comparison._nll(model, experiments.held_out_windows(comparison.TEST_WINDOW, FPS))
     print(f"\n### {label} (foot_anchor={model.config.foot_anchor}): test NLL {nll:.1f} bits/frame\n")
     print("| path, temperature | skating raw (cm/s) | finished (cm/s) | data's (cm/s) | raw / data | finished / data "
-          "| bone drift raw (%) | most-stretched bone: the joint it ends in, % | stepping / data, seconds 2-10 |")
+          f"| bone drift raw (%) | most-stretched bone: the joint it ends in, % | {last} |")
     print("|---|---|---|---|---|---|---|---|---|")
+
+
+def feet_row(path: str, t: float, samples: np.ndarray, data: np.ndarray, last: str) -> None:
+    """One row: ``samples``' feet raw and finished against the ``data`` bodies, and their bones."""
+    positions, data_positions = to_positions(samples, FPS), to_positions(data, FPS)
+    floor = contacts.planted_heights(data_positions)
+    raw = metrics.foot_skating(positions, FPS, rest_height_m=floor)
+    finished = metrics.foot_skating(contacts.finish(samples, FPS, planted_height_m=floor).positions, FPS,
+                                    rest_height_m=floor)
+    reference = metrics.foot_skating(data_positions, FPS, rest_height_m=floor)
+    bone, stretch = worst_bone(positions)
+    print(f"| {path}, τ = {t:g} | {100 * raw:.1f} | {100 * finished:.1f} | {100 * reference:.1f} "
+          f"| {raw / reference:.1f} | {finished / reference:.2f} | {100 * metrics.bone_length_drift(positions):.1f} "
+          f"| {bone} {100 * stretch:.0f} | {last} |")
+
+
+def report(label: str, model) -> None:
+    header(label, model, "stepping / data, seconds 2-10")
     reports = {}
     for path in ("walk", "run"):
         for t in TEMPERATURES:
             r = reports[path, t] = experiments.steering_report(model, path, STEER_S, temperature=t)
-            floor = contacts.planted_heights(to_positions(r["data"], FPS))
-            raw = metrics.foot_skating(to_positions(r["samples"], FPS), FPS, rest_height_m=floor)
-            done = contacts.finish(r["samples"], FPS, planted_height_m=floor)
-            finished = metrics.foot_skating(done.positions, FPS, rest_height_m=floor)
-            data = metrics.foot_skating(to_positions(r["data"], FPS), FPS, rest_height_m=floor)
             ratios = r["stepping"][1:] / r["data stepping"][1:]
-            drift = metrics.bone_length_drift(to_positions(r["samples"], FPS))
-            bone, stretch = worst_bone(to_positions(r["samples"], FPS))
-            print(f"| {path}, τ = {t:g} | {100 * raw:.1f} | {100 * finished:.1f} | {100 * data:.1f} | {raw / data:.1f} "
-                  f"| {finished / data:.1f} | {100 * drift:.1f} | {bone} {100 * stretch:.0f} "
-                  f"| {ratios.min():.2f}-{ratios.max():.2f} |")
+            feet_row(path, t, r["samples"], r["data"], f"{ratios.min():.2f}-{ratios.max():.2f}")
     walk = reports["walk", 0.3]
     stop = experiments.steering_report(model, "walk, then stop", STEER_S, temperature=0.3)
     follows = claims.follows_control(walk["samples"], walk["data stepping"], stop["samples"], stop["control"], FPS,
@@ -81,38 +99,17 @@ def report(label: str, model) -> None:
           f"{verdict_line(moving)}")
 
 
-def worst_bone(positions: np.ndarray) -> tuple[str, float]:
-    """The bone whose length changes most over time (``std / mean``, averaged over samples)."""
-    lengths = LOCOMOTION.bone_lengths(positions)
-    drift = (lengths.std(axis=-2) / lengths.mean(axis=-2)).reshape(-1, lengths.shape[-1]).mean(0)
-    child = LOCOMOTION.bones[int(drift.argmax())][1]
-    return LOCOMOTION.names[child], float(drift.max())
-
-
 def report_glow(label: str, model) -> None:
-    nll, _ = comparison._nll(model, experiments.held_out_windows(comparison.TEST_WINDOW, FPS))
-    print(f"\n### {label} (foot_anchor={model.config.foot_anchor}): test NLL {nll:.1f} bits/frame\n")
-    print("| path, temperature | skating raw (cm/s) | finished (cm/s) | data's (cm/s) | raw / data | finished / data "
-          "| bone drift raw (%) | most-stretched bone: the joint it ends in, % | stepping, leg swing / data |")
-    print("|---|---|---|---|---|---|---|---|---|")
-    entry = next(e for e in comparison.ENTRIES if e.name == "glow")
+    header(label, model, "stepping, leg swing / data")
+    window = next(e for e in comparison.ENTRIES if e.name == "glow").window
     for path in ("walk", "run"):
         walks = experiments.preset_walks(path, SECONDS_GLOW, FPS, N, lead_frames=comparison.PREFIX_FRAMES)
-        truth = walks[:, comparison.PREFIX_FRAMES:][:, :entry.window]
-        floor = contacts.planted_heights(to_positions(truth, FPS))
-        data = metrics.foot_skating(to_positions(truth, FPS), FPS, rest_height_m=floor)
+        truth = walks[:, comparison.PREFIX_FRAMES:][:, :window]
         for t in GLOW_TEMPERATURES:
             samples = model.generate(truth[0, :, N_POSE:], n=N, temperature=t).features
-            positions = to_positions(samples, FPS)
-            raw = metrics.foot_skating(positions, FPS, rest_height_m=floor)
-            done = contacts.finish(samples, FPS, planted_height_m=floor)
-            finished = metrics.foot_skating(done.positions, FPS, rest_height_m=floor)
-            bone, stretch = worst_bone(positions)
             stepping = metrics.stepping_speed(samples, FPS).mean() / metrics.stepping_speed(truth, FPS).mean()
             swing = metrics.leg_swing(samples) / metrics.leg_swing(truth)
-            print(f"| {path}, τ = {t:g} | {100 * raw:.1f} | {100 * finished:.1f} | {100 * data:.1f} | {raw / data:.1f} "
-                  f"| {finished / data:.2f} | {100 * metrics.bone_length_drift(positions):.1f} | {bone} {100 * stretch:.0f} "
-                  f"| {stepping:.2f}, {swing:.2f} |")
+            feet_row(path, t, samples, truth, f"{stepping:.2f}, {swing:.2f}")
     sweep = experiments.temperature_sweep(model, experiments.held_out_windows(model.config.window, FPS),
                                           GLOW_TEMPERATURES)
     print("\nnotebook 05's claim (moves like the data, held-out windows): "

@@ -230,6 +230,17 @@ def foot_acceleration(positions: np.ndarray, fps: float, percentile: float = 99.
     return float(np.percentile(np.linalg.norm(np.diff(feet, 2, axis=-3), axis=-1) * fps * fps, percentile))
 
 
+def bone_length(positions: np.ndarray, joint: str, skeleton: Skeleton = LOCOMOTION) -> np.ndarray:
+    """The length of the bone that ends in ``joint`` (``"RightFoot"``: the right shin, knee to
+    ankle) in every frame of ``positions`` ``(..., frames, joints, 3)``: ``(..., frames)``, metres."""
+    if joint not in skeleton.names or skeleton.index(joint) == 0:
+        raise ValueError(f"joint: expected a joint with a parent, one of {', '.join(skeleton.names[1:])}; "
+                         f"got {joint!r}")
+    positions = checks.array(positions, "positions", (..., "frames", skeleton.n_joints, 3))
+    bone = [child for _, child in skeleton.bones].index(skeleton.index(joint))
+    return skeleton.bone_lengths(positions)[..., bone]
+
+
 def bone_length_drift(positions: np.ndarray, skeleton: Skeleton = LOCOMOTION) -> float:
     """How much bone lengths change over time: mean over bones of ``std / mean`` length.
 

@@ -21,7 +21,7 @@ from typing import Sequence
 import matplotlib.pyplot as plt
 import numpy as np
 
-from . import checks
+from . import checks, metrics
 from .animations import (PATH_COLORS, PLAYER_GLYPHS, STILL_PANEL_PX, Shown, animate, save_frame, save_gif,
                          show, stills, to_html)
 from .representation import N_FEATURES, root_trajectory, to_positions
@@ -32,8 +32,8 @@ from .stickfigure import (CENTER_COLOR, GRID_COLOR, GRID_SPACING_M, LEFT_COLOR, 
 __all__ = ["CENTER_COLOR", "GRID_COLOR", "GRID_SPACING_M", "LEFT_COLOR", "PATH_COLORS", "PLAYER_GLYPHS",
            "RIGHT_COLOR", "STILL_PANEL_PX", "Shown", "animate", "bone_colors", "plot_bone_length",
            "plot_conv_filters", "plot_contacts", "plot_controls", "plot_filmstrip", "plot_footprints", "plot_frame",
-           "plot_history", "plot_joints_compared", "plot_leg", "plot_live_run", "plot_motion", "plot_skeleton", "plot_trajectory",
-           "save_frame", "save_gif", "show", "stills", "to_html", "_plot_xyz"]
+           "plot_history", "plot_joints_compared", "plot_leg", "plot_live_run", "plot_motion", "plot_skeleton",
+           "plot_trajectory", "save_frame", "save_gif", "show", "stills", "to_html", "_plot_xyz"]
 """The drawing basics live in :mod:`motionlab.stickfigure`, the animations in
 :mod:`motionlab.animations`; their names are here too (``_plot_xyz``, the axis swap, for the
 tests)."""
@@ -383,24 +383,20 @@ def plot_bone_length(motions: dict, fps: float, joint: str = "RightFoot", data=N
     frames, 66)}`` (data units; the mean over its ``n`` samples, with their spread shaded),
     and the mean of ``data``'s (same layout) as a dashed line. A rigid body draws flat lines;
     a model whose feet drift from its body draws a bone that grows. Returns the axes."""
-    if joint not in LOCOMOTION.names or LOCOMOTION.index(joint) == 0:
-        raise ValueError(f"joint: expected a joint with a parent, one of {', '.join(LOCOMOTION.names[1:])}; "
-                         f"got {joint!r}")
     fps = checks.rate(fps, "fps")
-    bone = [child for _, child in LOCOMOTION.bones].index(LOCOMOTION.index(joint))
-    parent = LOCOMOTION.names[LOCOMOTION.bones[bone][0]]
+    curves = {label: 100 * metrics.bone_length(to_positions(checks.array(
+        features, f"motions[{label!r}]", ("n", "frames", N_FEATURES)), fps), joint) for label, features in motions.items()}
     if ax is None:
         ax = plt.figure(figsize=(9, 3.2)).add_subplot()
-    for k, (label, features) in enumerate(motions.items()):
-        features = checks.array(features, f"motions[{label!r}]", ("n", "frames", N_FEATURES))
-        lengths = 100 * LOCOMOTION.bone_lengths(to_positions(features, fps))[..., bone]       # (n, frames), cm
+    for k, (label, lengths) in enumerate(curves.items()):                     # (n, frames), cm
         t = np.arange(lengths.shape[1]) / fps
         ax.plot(t, lengths.mean(0), color=f"C{k}", label=label)
         ax.fill_between(t, lengths.min(0), lengths.max(0), color=f"C{k}", alpha=0.15, lw=0)
     if data is not None:
         data = checks.array(data, "data", ("n", "frames", N_FEATURES))
-        ax.axhline(100 * LOCOMOTION.bone_lengths(to_positions(data, fps))[..., bone].mean(), color="k", ls="--",
-                   lw=1, label="the data's bodies")
+        ax.axhline(100 * metrics.bone_length(to_positions(data, fps), joint).mean(), color="k", ls="--", lw=1,
+                   label="the data's bodies")
+    parent = LOCOMOTION.names[LOCOMOTION.parents[LOCOMOTION.index(joint)]]
     ax.set_xlabel("time (s)")
     ax.set_ylabel(f"{parent} → {joint} (cm)")
     ax.legend(fontsize=8)

@@ -191,3 +191,15 @@ def test_to_positions_takes_batches():
     assert batch.shape == (3, 40, 21, 3)
     assert np.allclose(batch[2], rep.to_positions(clips[2], 20.0))
     assert rep.to_positions(clips[None], 20.0).shape == (1, 3, 40, 21, 3)
+
+
+def test_bone_length_is_the_bone_into_the_joint():
+    from motionlab.skeleton import LOCOMOTION
+    walk = walker()
+    knee, ankle = LOCOMOTION.index("RightLeg"), LOCOMOTION.index("RightFoot")
+    np.testing.assert_allclose(metrics.bone_length(walk, "RightFoot"),
+                               np.linalg.norm(walk[:, ankle] - walk[:, knee], axis=-1), atol=1e-12)
+    assert metrics.bone_length(walk[None], "RightFoot").shape == (1, len(walk))
+    for bad in ("Hips", "Tail"):
+        with pytest.raises(ValueError, match="joint"):
+            metrics.bone_length(walk, bad)

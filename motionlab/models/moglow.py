@@ -50,7 +50,9 @@ each ankle and toe, the frame's value less where that joint would be had it stay
 the world since the previous frame (:meth:`MoGlow.anchor`): a function of the previous
 pose and the control, which are conditioning, so the shift's log-determinant is 0 and the
 likelihood stays exact (``m`` takes the true previous pose, whether or not dropout hides it
-from the networks). Sampling adds it back frame by frame, :class:`~motionlab.engine.stream.MoGlowStream` too.
+from the networks). Sampling adds it back frame by frame,
+:class:`~motionlab.engine.stream.MoGlowStream` too. With ``anchor_conditioning`` (not in
+the paper either) ``m`` is also part of every coupling's conditioning, never dropped.
 
 Everything here reuses :mod:`motionlab.models.flows` unchanged: the coupling network is
 the pluggable part (:class:`LSTMCouplingNet` here; the Markovian variant of §4.2 uses
@@ -106,8 +108,9 @@ class MoGlowConfig:
             stayed planted since the previous frame (:meth:`MoGlow.anchor`); needs the
             model's normaliser (``model.normalizer``, set by :func:`motionlab.training.train`).
         anchor_conditioning: with ``foot_anchor``, the coupling networks also see ``m``
-            (where each foot would be had it stayed planted: where it is), never dropped,
-            so that they can bring a foot that drifted from the body back.
+            (where each foot would be had it stayed planted: where it is), never dropped:
+            the history, dropped, rarely shows them where a foot is relative to the body.
+            Not in the paper; measured in the README, not shipped.
     """
 
     n_features: int = 66
