@@ -91,8 +91,9 @@ PIVOT_BEND = 0.01
 the knee keeps a direction to bend in."""
 
 REACH_SLACK_M = 0.02
-"""How far a locked ankle may fall short of its target, the leg stretched (after pivoting),
-before the lock lets go (metres): short of full reach the foot slides by at most this much."""
+"""How far a locked ankle may fall short of its target, the leg stretched, or a held toe lie
+beyond a pivoting foot's reach, before the lock lets go (metres): short of full reach the
+foot slides by at most this much."""
 
 LEGS = tuple(tuple(LOCOMOTION.index(side + name) for name in ("UpLeg", "Leg", "Foot", "ToeBase"))
              for side in ("Left", "Right"))
@@ -140,16 +141,17 @@ def two_bone_ik(hip, knee, ankle, target, pole_hint=None, reach_slack_m: float =
     return new_knee, hip + d[..., None] * direction, reached
 
 
-def _pivot(hip, toe, reach, foot, near) -> np.ndarray:
+def _pivot(hip, toe, reach, foot, near) -> tuple[np.ndarray, np.ndarray]:
     """Where an ankle can be, ``reach`` from the ``hip`` and ``foot`` from the ``toe``
-    (the circle where two spheres meet), on the side of ``near``: ``(n, 3)``. Where the
-    spheres do not meet, the point on the hip-toe line at ``reach`` (out of reach)."""
+    (the circle where two spheres meet), on the side of ``near``: ``(n, 3)``, and whether
+    the spheres meet, within :data:`REACH_SLACK_M` ``(n,)``. Where they do not, the point
+    on the hip-toe line at ``reach``: the toe is out of even a pivoting foot's reach."""
     u, d = _unit(toe - hip)
     x = np.clip((d ** 2 + reach ** 2 - foot ** 2) / (2 * np.maximum(d, 1e-9)), -reach, reach)
     r = np.sqrt(np.maximum(reach ** 2 - x ** 2, 0.0))
     w = near - hip
     w, _ = _unit(w - (w * u).sum(-1, keepdims=True) * u)
-    return hip + x[:, None] * u + r[:, None] * w
+    return hip + x[:, None] * u + r[:, None] * w, d <= reach + foot + REACH_SLACK_M
 
 
 class FootLock:
@@ -166,8 +168,10 @@ class FootLock:
       length from it; beyond the leg's reach the heel rises and the foot pivots on its toe
       (:func:`_pivot`), as a walker's does at toe-off. The foot bone then points from the
       new ankle at the toe's target, its length kept. Only the knee, ankle and toe move.
-    * **Letting go.** When the contact ends (or, rarely, even the pivot cannot reach),
-      ``O`` fades to zero over :data:`RELEASE_S` (slowed by :data:`LOW_FADE` while the
+    * **Letting go.** When the contact ends, or the leg cannot reach the held foot even
+      pivoting on its toe (the toe more than the leg's reach plus the foot's length, plus
+      :data:`REACH_SLACK_M`, from the hip: the body has moved on without stepping), ``O``
+      fades to zero over :data:`RELEASE_S` (slowed by :data:`LOW_FADE` while the
       foot is still near the floor) and the height correction over :data:`BLEND_S`:
       smoothsteps, so the foot rejoins the motion without a pop.
 
@@ -306,17 +310,18 @@ class FootLock:
         reach = (np.linalg.norm(frame[:, knee] - frame[:, hip], axis=-1)
                  + np.linalg.norm(frame[:, ankle] - frame[:, knee], axis=-1)) * (1 - PIVOT_BEND)
         far = active[:, leg] & (np.linalg.norm(ankle_target - frame[:, hip], axis=-1) > reach)
+        wanted, met = ankle_target.copy(), np.ones(self.batch, dtype=bool)
         if far.any():                                                         # pivot on the toe
             self.pivot_frames += int(far.sum())
-            ankle_target[far] = _pivot(frame[far, hip], toe_target[far], reach[far], foot_length[far, 0],
-                                       ankle_target[far])
+            ankle_target[far], met[far] = _pivot(frame[far, hip], toe_target[far], reach[far], foot_length[far, 0],
+                                                 ankle_target[far])
         new_knee, new_ankle, reached = two_bone_ik(frame[:, hip], frame[:, knee], frame[:, ankle], ankle_target,
                                                    pole_hint=hint, reach_slack_m=REACH_SLACK_M)
-        lost = active[:, leg] & ~reached
+        lost = active[:, leg] & ~(reached & met)
         if lost.any():                           # out of reach: let go from where the foot got to
             self.reach_releases += int(lost.sum())
             self.blocked[lost, leg] = True
-            got = (new_ankle - ankle_target)[lost][:, [0, 2]]
+            got = (new_ankle - wanted)[lost][:, [0, 2]]
             for j in (2 * leg, 2 * leg + 1):
                 self.offset[lost, j] += got
                 self.let_go[lost, j] = self.offset[lost, j]

@@ -164,6 +164,27 @@ def test_a_held_foot_stays_where_it_landed(walking):
     assert drift < 0.01, drift
 
 
+def test_a_foot_the_body_glides_away_from_is_let_go_and_stays_on_the_floor(walking):
+    """A body that glides 1.5 m/s with its feet still (the LSTM-3LR's failure), every foot
+    joint labelled in contact: once even a foot pivoting on its toe cannot reach the held
+    toe, the lock lets go (counted), so the foot never hangs in the air on a stretched leg
+    aimed at a spot metres behind."""
+    frames = 60
+    glide = np.repeat(walking[:1, :1], frames, axis=1)
+    glide[..., 0] += 1.5 / FPS * np.arange(frames)[None, :, None]
+    floor = contacts.planted_heights(walking)
+    result = contacts.lock(glide, FPS, contacts=np.ones((1, frames, 4), dtype=bool), planted_height_m=floor)
+    assert result.reach_releases == 2 and result.out_of_reach == 1.0               # each foot once
+    legs = [leg[0] for leg in contacts.LEGS]
+    behind = np.linalg.norm((result.positions[0, :, FEET] - glide[0, :, [legs[0], legs[0], legs[1], legs[1]]])
+                            [..., [0, 2]], axis=-1)
+    reach = sum(np.linalg.norm(glide[0, 0, a] - glide[0, 0, b]) for a, b in zip(contacts.LEGS[0], contacts.LEGS[0][1:]))
+    assert behind.max() < reach + 0.05                                           # no foot left metres behind
+    lifted = result.positions[0, :, FEET, 1] - glide[0, :, FEET, 1]                # (4, frames)
+    assert lifted[[1, 3]].max() < 0.05 and lifted[[0, 2]].max() < 0.15      # toes on the floor, heels off it
+    np.testing.assert_allclose(LOCOMOTION.bone_lengths(result.positions), LOCOMOTION.bone_lengths(glide), atol=1e-9)
+
+
 def test_a_motion_without_contacts_is_left_alone(walking):
     high = walking[:1].copy()
     high[..., 1] += 0.5
