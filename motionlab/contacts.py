@@ -173,7 +173,8 @@ class FootLock:
       :data:`REACH_SLACK_M`, from the hip: the body has moved on without stepping), ``O``
       fades to zero over :data:`RELEASE_S` (slowed by :data:`LOW_FADE` while the
       foot is still near the floor) and the height correction over :data:`BLEND_S`:
-      smoothsteps, so the foot rejoins the motion without a pop.
+      smoothsteps, so the foot rejoins the motion without a jump (a heel the pivot raised
+      drops back at once). A foot let go for reach stays free until its contact ends.
 
     Contacts: pass them to :meth:`step`, or let the lock detect them causally (height
     above the planted height and backward-difference speed, with hysteresis; no filter,

@@ -175,8 +175,8 @@ def test_a_foot_the_body_glides_away_from_is_let_go_and_stays_on_the_floor(walki
     floor = contacts.planted_heights(walking)
     result = contacts.lock(glide, FPS, contacts=np.ones((1, frames, 4), dtype=bool), planted_height_m=floor)
     assert result.reach_releases == 2 and result.out_of_reach == 1.0               # each foot once
-    legs = [leg[0] for leg in contacts.LEGS]
-    behind = np.linalg.norm((result.positions[0, :, FEET] - glide[0, :, [legs[0], legs[0], legs[1], legs[1]]])
+    hips = [leg[0] for leg in contacts.LEGS]                                     # each leg's hip joint
+    behind = np.linalg.norm((result.positions[0, :, FEET] - glide[0, :, [hips[0], hips[0], hips[1], hips[1]]])
                             [..., [0, 2]], axis=-1)
     reach = sum(np.linalg.norm(glide[0, 0, a] - glide[0, 0, b]) for a, b in zip(contacts.LEGS[0], contacts.LEGS[0][1:]))
     assert behind.max() < reach + 0.05                                           # no foot left metres behind
