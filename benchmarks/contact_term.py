@@ -14,8 +14,8 @@ each loss), for the VAE-LSTM also with each of ``--bone-weights`` (``--set bone_
 the squared error of the reconstruction's bone lengths, cm²; default 0, off), for each of
 ``--seeds`` (the command line's seed: the training clips and the
 first weights), ``--jobs`` trainings at a time in their own processes, their checkpoints and
-logs in ``--out`` (a checkpoint already there is reused). ``--epochs`` shortens the
-VAE-LSTM's 20 epochs, and DFN's 10 / 10 / 20 and the conv AE's 40 by the same fraction.
+logs in ``--out`` (a checkpoint already there is reused). ``--epochs`` changes the
+VAE-LSTM's 20 epochs, and DFN's 10 / 10 / 20 and the conv AE's 40 in the same proportion.
 ``--model conv_ae`` trains Motegi's conv autoencoder (notebook 03's recipe; its decoder is
 also the VAE's) and measures its reconstructions of the held-out windows.
 
@@ -287,7 +287,8 @@ def main(argv: list[str] | None = None) -> None:
     runs = [Run(model, weight, seed, bone) for model in args.model for seed in args.seeds
             for bone in (0.0, *args.bone_weights) for weight in (0.0, *(args.weights or WEIGHTS[model]))]
     print(f"{len(runs)} trainings on {args.device} ({args.jobs} at a time, {args.threads} CPU thread(s) each), "
-          f"{args.epochs} epochs{'' if args.epochs == RECIPE_EPOCHS else ' (shortened)'}; checkpoints in {args.out}\n")
+          f"{args.epochs} epochs{'' if args.epochs == RECIPE_EPOCHS else f' (the recipe: {RECIPE_EPOCHS})'}; "
+          f"checkpoints in {args.out}\n")
     train_all(runs, args)
     measure(runs, args)
 
