@@ -139,22 +139,42 @@ class Lab:
         self.click(lambda d: d.find_elements("css selector", ".jp-Notebook .jp-Cell")[index].find_element(
             "css selector", ".jp-InputArea-prompt"), f"cell {index}'s prompt")
 
-    def run_cells(self, n: int) -> None:
-        """Run the first ``n`` cells with Shift+Enter, as a student would."""
-        from selenium.webdriver.common.action_chains import ActionChains
-        from selenium.webdriver.common.keys import Keys
-        self._click_prompt(0)
-        for _ in range(n):
-            ActionChains(self.driver).key_down(Keys.SHIFT).send_keys(Keys.ENTER).key_up(Keys.SHIFT).perform()
-            time.sleep(0.3)
+    def _prompt(self, index: int) -> str:
+        """Cell ``index``'s prompt text: ``[ ]:`` not run, ``[*]:`` running or queued, ``[k]:`` run."""
+        from selenium.common.exceptions import StaleElementReferenceException
+        try:
+            return self.driver.find_elements("css selector", ".jp-Notebook .jp-Cell")[index].find_element(
+                "css selector", ".jp-InputArea-prompt").text
+        except (StaleElementReferenceException, IndexError):
+            return ""
 
-    def run_cell(self, index: int) -> None:
-        """Select cell ``index`` (a click on its prompt) and run it with Shift+Enter."""
+    def _started(self, index: int, before: str) -> bool:
+        """Cell ``index``'s prompt is no longer ``before`` and shows it running or run."""
+        prompt = self._prompt(index)
+        return prompt != before and ("*" in prompt or any(c.isdigit() for c in prompt))
+
+    def run_cells(self, n: int) -> None:
+        """Run the first ``n`` cells with Shift+Enter, one after another, as a student would."""
+        for index in range(n):
+            self.run_cell(index)
+
+    def run_cell(self, index: int, tries: int = 3) -> None:
+        """Select cell ``index`` (a click on its prompt) and run it with Shift+Enter; wait until
+        its prompt shows that it started (``[*]`` or a new count). A key pressed while the page
+        is still settling can be lost: then select the cell and press again, ``tries`` times."""
+        from selenium.common.exceptions import TimeoutException
         from selenium.webdriver.common.action_chains import ActionChains
         from selenium.webdriver.common.keys import Keys
-        self._click_prompt(index)
-        ActionChains(self.driver).key_down(Keys.SHIFT).send_keys(Keys.ENTER).key_up(Keys.SHIFT).perform()
-        time.sleep(0.3)
+        before = self._prompt(index)
+        for _ in range(tries):
+            self._click_prompt(index)
+            ActionChains(self.driver).key_down(Keys.SHIFT).send_keys(Keys.ENTER).key_up(Keys.SHIFT).perform()
+            try:
+                self.wait_for(lambda d: self._started(index, before), f"cell {index} to start", timeout_s=10.0)
+                return
+            except TimeoutException:
+                continue
+        raise TimeoutException(f"cell {index} did not start after {tries} Shift+Enter (prompt {self._prompt(index)!r})")
 
     def wait_idle(self, timeout_s: float | None = None) -> None:
         """Wait until no cell is running (no ``[*]`` prompt) and the kernel is idle."""
