@@ -134,18 +134,21 @@ class Lab:
                 return False
         self.wait_for(attempt, what)
 
+    def _prompt_element(self, index: int):
+        """Cell ``index``'s prompt element (``IndexError`` while the cell is not drawn yet)."""
+        return self.driver.find_elements("css selector", ".jp-Notebook .jp-Cell")[index].find_element(
+            "css selector", ".jp-InputArea-prompt")
+
     def _click_prompt(self, index: int) -> None:
         """Click cell ``index``'s prompt (selecting it)."""
-        self.click(lambda d: d.find_elements("css selector", ".jp-Notebook .jp-Cell")[index].find_element(
-            "css selector", ".jp-InputArea-prompt"), f"cell {index}'s prompt")
+        self.click(lambda d: self._prompt_element(index), f"cell {index}'s prompt")
 
     def _prompt(self, index: int) -> str:
         """Cell ``index``'s prompt text: ``[ ]:`` not run, ``[*]:`` running or queued, ``[k]:`` run."""
-        from selenium.common.exceptions import StaleElementReferenceException
+        from selenium.common.exceptions import NoSuchElementException, StaleElementReferenceException
         try:
-            return self.driver.find_elements("css selector", ".jp-Notebook .jp-Cell")[index].find_element(
-                "css selector", ".jp-InputArea-prompt").text
-        except (StaleElementReferenceException, IndexError):
+            return self._prompt_element(index).text
+        except (StaleElementReferenceException, NoSuchElementException, IndexError):
             return ""
 
     def _started(self, index: int, before: str) -> bool:
