@@ -6,6 +6,7 @@ what does it cost?
     python benchmarks/contact_term.py --model vae_lstm dfn --seeds 0 1 --jobs 20 --device cuda
     python benchmarks/contact_term.py --model vae_lstm dfn --epochs 1 --weights 1    # a smoke run
     python benchmarks/contact_term.py --weights 1 --bone-weights 1 10      # also the bone-length term
+    python benchmarks/contact_term.py --weights 1 2 --skeleton             # on the skeleton output layer
 
 Each model is trained by its recipe of ``make checkpoints`` (the Makefile; the command line
 ``python -m motionlab.train``) without the term and with each weight of ``--weights``
@@ -25,7 +26,8 @@ heights): the training time; the term itself on the held-out windows' reconstruc
 VAE-LSTM's from ``z_1`` alone, the path that generates; DFN's through its sequence
 autoencoder); foot skating as generated and after ``contacts.lock_feet``; pose error at 1 s
 and 3 s; stepping and leg swing against the data's; bone drift; and the paper's claim: for
-the VAE-LSTM its NLL bound and whether it keeps stepping along the walk and run presets for
+the VAE-LSTM its NLL bound, its reconstruction from ``z_1`` alone (notebook 04's measure of
+the path that generates) and whether it keeps stepping along the walk and run presets for
 10 s (``claims.steps_steadily``, notebook 04), for DFN whether 30-s futures of held-out
 prefixes diversify like its training data (``claims.diverse_futures``, §6.3,
 ``benchmarks/quality.py`` section 6). Training runs on ``--device``; the measures on the CPU.
@@ -70,19 +72,23 @@ class Run:
     weight: float
     seed: int
     bone: float = 0.0              # the VAE-LSTM's bone_weight
+    skeleton: bool = False         # the VAE-LSTM's skeleton output layer
 
     @property
     def label(self) -> str:
-        return {"vae_lstm": "VAE-LSTM", "dfn": "DFN", "conv_ae": "conv AE"}[self.model]
+        return {"vae_lstm": "VAE-LSTM", "dfn": "DFN", "conv_ae": "conv AE"}[self.model] \
+            + (" on a skeleton" if self.skeleton else "")
 
     def checkpoint(self, out: Path, epochs: int) -> Path:
         bone = f"_bone{self.bone:g}" if self.bone > 0 else ""
+        bone += "_skeleton" if self.skeleton else ""
         return out / f"{self.model}_contact{self.weight:g}{bone}_seed{self.seed}_epochs{epochs}.pt"
 
     def command(self, epochs: int, device: str, path: Path) -> list[str]:
         """The ``make checkpoints`` recipe for this run (``python -m motionlab.train`` arguments)."""
         weight = [f"contact_weight={self.weight:g}"] if self.weight > 0 else []
         weight += [f"bone_weight={self.bone:g}"] if self.bone > 0 else []
+        weight += ["skeleton=true"] if self.skeleton else []
         if self.model == "vae_lstm":
             recipe = ["vae_lstm", "--synthetic-clips", "120", "--epochs", str(epochs), "--lr", "3e-3", "--half",
                       "--set", "observation_std=3.0", *weight]
@@ -143,6 +149,14 @@ def held_out_term(model, windows: np.ndarray) -> float:
         return float(model.contact_term(r, x))
 
 
+def z1_reconstruction_cm(model, windows: np.ndarray) -> float:
+    """Notebook 04's measure of the path that generates: the pose error (cm) of the held-out
+    ``windows`` reconstructed by the VAE-LSTM from ``z_1`` alone (its posterior mean)."""
+    x = torch.tensor(model.normalizer.normalize(windows), dtype=torch.float32)
+    rebuilt = model.normalizer.denormalize(model.reconstruct(x, free_running=True).double().numpy())
+    return 100 * metrics.pose_error(rebuilt, windows)
+
+
 def locked_skating(features: np.ndarray, rest: np.ndarray) -> float:
     """Foot skating (cm/s, the data's planted heights) after :func:`contacts.lock_feet`."""
     locked = contacts.lock_feet(to_positions(features, FPS), FPS, planted_height_m=rest)
@@ -197,7 +211,7 @@ def conv_ae_row(run: Run, checkpoint, windows: np.ndarray, rest: np.ndarray) -> 
     print(f"| conv AE (reconstructions) | {run.weight:g} | | {run.seed} | {checkpoint.history.seconds:.0f} "
           f"| {term:.3f} "
           f"| {100 * r['foot skating (m/s)']:.1f} | {locked_skating(features, rest):.1f} "
-          f"| pose {100 * errors['conv AE'][0]:.2f} | | | {100 * r['bone drift']:.2f} | n/a "
+          f"| pose {100 * errors['conv AE'][0]:.2f} | | | {100 * r['bone drift']:.2f} | n/a | n/a "
           f"| {'holds' if verdict else 'fails'} |", flush=True)
     return [f"conv AE, weight {run.weight:g}, seed {run.seed}: {why}" for why in verdict.failures]
 
@@ -217,13 +231,13 @@ def measure(runs: list[Run], args: argparse.Namespace) -> None:
           f"{comparison.PREFIX_FRAMES} the prefix of the models that continue motion\n")
     print("| model | contact weight | bone weight | seed | training (s) | contact term, held-out ((m/s)²) "
           "| foot skating (cm/s) | after lock_feet (cm/s) | pose error 1 s / 3 s (cm) | stepping / data | leg swing / data "
-          "| bone drift (%) | NLL bound (bits/frame) | paper's claim |")
-    print("|" + "---|" * 14)
+          "| bone drift (%) | NLL bound (bits/frame) | z_1-only reconstruction (cm) | paper's claim |")
+    print("|" + "---|" * 15)
     data_row = comparison.table_rows({}, windows)["data"]
     own = float(contacts.contact_velocity_loss(judged_t, judged_t, FPS))
     print(f"| data | | | | | {own:.3f} | {data_row['foot skating (cm/s)']:.1f} "
           f"| {locked_skating(judged, rest):.1f} | | {data_row['stepping (m/s)']:.2f} m/s "
-          f"| {data_row['leg swing (cm)']:.1f} cm | {data_row['bone drift (%)']:.2f} | | |")
+          f"| {data_row['leg swing (cm)']:.1f} cm | {data_row['bone drift (%)']:.2f} | | | |")
     failures = []
     for run in runs:
         path = run.checkpoint(args.out, args.epochs)
@@ -240,6 +254,7 @@ def measure(runs: list[Run], args: argparse.Namespace) -> None:
             dfn_claim(model, checkpoint.description)
         failures += [f"{run.label}, weight {run.weight:g}, bone weight {run.bone:g}, seed {run.seed}: {why}"
                      for why in verdict.failures]
+        z1 = f"{z1_reconstruction_cm(model, windows):.1f}" if run.model == "vae_lstm" else "n/a"
         nll = "n/a" if not np.isfinite(r["test NLL (bits/frame)"]) else f"≤ {r['test NLL (bits/frame)']:.0f}"
         print(f"| {run.label} | {run.weight:g} | {run.bone:g} | {run.seed} | {checkpoint.history.seconds:.0f} "
               f"| {held_out_term(model, windows):.3f} | {r['foot skating (cm/s)']:.1f} "
@@ -247,7 +262,7 @@ def measure(runs: list[Run], args: argparse.Namespace) -> None:
               f"| {r['pose error 1 s (cm)']:.1f} / {r['pose error 3 s (cm)']:.1f} "
               f"| {r['stepping (m/s)'] / data_row['stepping (m/s)']:.2f} "
               f"| {r['leg swing (cm)'] / data_row['leg swing (cm)']:.2f} | {r['bone drift (%)']:.2f} | {nll} "
-              f"| {'holds' if verdict else 'fails'} |", flush=True)
+              f"| {z1} | {'holds' if verdict else 'fails'} |", flush=True)
     print("\nThe VAE-LSTM's claim: steps steadily along walk and run for 10 s (claims.steps_steadily); "
           "DFN's: diverse futures (claims.diverse_futures, §6.3); the conv AE's: its reconstructions beat the "
           "trivial ones (claims.beats_trivial_reconstructions, notebook 02; pose error in cm).")
@@ -263,6 +278,8 @@ def main(argv: list[str] | None = None) -> None:
                              + "; ".join(f"{m} {' '.join(f'{w:g}' for w in ws)}" for m, ws in WEIGHTS.items()) + ")")
     parser.add_argument("--bone-weights", nargs="+", type=float, default=[],
                         help="bone-length weights (> 0) besides 0, the VAE-LSTM only (default: none)")
+    parser.add_argument("--skeleton", action="store_true",
+                        help="the VAE-LSTM's runs with its skeleton output layer (--set skeleton=true)")
     parser.add_argument("--seeds", nargs="+", type=int, default=[0], help="seeds of the trainings (default 0)")
     parser.add_argument("--epochs", type=int, default=RECIPE_EPOCHS,
                         help=f"the VAE-LSTM's epochs (default {RECIPE_EPOCHS}, the recipe's); "
@@ -279,12 +296,14 @@ def main(argv: list[str] | None = None) -> None:
     if not all(np.isfinite(w) and w > 0 for w in args.bone_weights) \
             or (args.bone_weights and args.model != ["vae_lstm"]):
         parser.error(f"--bone-weights: expected numbers > 0, with --model vae_lstm only; got {args.bone_weights}")
+    if args.skeleton and args.model != ["vae_lstm"]:
+        parser.error("--skeleton: the VAE-LSTM's option, with --model vae_lstm only")
     if args.epochs < 1 or args.jobs < 1 or (args.threads is not None and args.threads < 1) \
             or any(s < 0 for s in args.seeds):
         parser.error("--epochs, --jobs and --threads: expected whole numbers >= 1; --seeds >= 0")
     args.threads = args.threads or max(1, (os.cpu_count() or 1) // args.jobs)
     args.out.mkdir(parents=True, exist_ok=True)
-    runs = [Run(model, weight, seed, bone) for model in args.model for seed in args.seeds
+    runs = [Run(model, weight, seed, bone, args.skeleton) for model in args.model for seed in args.seeds
             for bone in (0.0, *args.bone_weights) for weight in (0.0, *(args.weights or WEIGHTS[model]))]
     print(f"{len(runs)} trainings on {args.device} ({args.jobs} at a time, {args.threads} CPU thread(s) each), "
           f"{args.epochs} epochs{'' if args.epochs == RECIPE_EPOCHS else f' (the recipe: {RECIPE_EPOCHS})'}; "

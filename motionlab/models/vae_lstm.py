@@ -18,6 +18,7 @@ canvas back into frames at the full rate::
          + free_running * -log N(X | X^ decoded from z_1 alone, test-time cell, std^2)    (ours)
          + contact_weight * mean(planted in X * |world foot velocity in X^|^2)   (HuMoR, EDGE, MDM; off: 0)
          + bone_weight * mean((bone length in X^ - in X)^2, cm^2)                    (ours; off: 0)
+    skeleton=True: X^'s bones each one length per sequence (skeleton_output.py)    (ours; off)
 
 Generation (§3.4, Algorithm 1) needs only a control signal: ``z_1`` comes from the prior
 (no frames) or from the posterior of the first 4 frames (§4.3), and the cell runs in its
@@ -43,6 +44,7 @@ from .. import checks
 from . import gaussian
 from .base import Generated, GenerativeModel, check_tensor, eval_mode, generator_for, per_frame_nll
 from .modelcard import NO_CLIP, ModelCard, choice, paper
+from .skeleton_output import SkeletonOutput
 
 POOLING = 4
 """Frames per canvas step: two max-pooling layers, each halving the frame rate (§4.2)."""
@@ -83,6 +85,7 @@ class VAELSTMConfig:
             shipped models).
         bone_weight: weight of the bone-length term (:meth:`loss`): nats per frame per cm²
             of squared bone-length error; 0 = off (the shipped models).
+        skeleton: each bone of the decoder's pose keeps one length (:class:`SkeletonOutput`; ours).
     """
 
     n_pose: int = 63
@@ -103,6 +106,7 @@ class VAELSTMConfig:
     upsample: str = "linear"
     contact_weight: float = 0.0
     bone_weight: float = 0.0
+    skeleton: bool = False
 
     def __post_init__(self):
         checks.config(self, positive_fields=("observation_std",), probability_fields=("dropout",),
@@ -262,6 +266,7 @@ class VAELSTM(GenerativeModel, nn.Module):
                                      last_activation=False)
         self.cell = ControlledLSTMCell(c.units, c.control_code)
         self.decoder = CanvasDecoder(c.units, c.decoder_filters, c.n_features, c.width, c.upsample)
+        self.skeleton = SkeletonOutput() if c.skeleton else None
 
     # -- checks --------------------------------------------------------------------------
 
@@ -276,10 +281,9 @@ class VAELSTM(GenerativeModel, nn.Module):
         and each control channel of each window is zeroed (set to the data's mean) with
         probability ``dropout``; the rest is scaled by ``1 / (1 - dropout)``. Works on the
         pose ``(..., n_pose)``, the control ``(..., n_control)`` or both together."""
-        p = self.config.dropout
+        p, n_pose = self.config.dropout, self.config.n_pose
         if p == 0:
             return x
-        n_pose = self.config.n_pose
         groups = []
         if x.shape[-1] in (n_pose, self.config.n_features):
             groups += [3] * (n_pose // 3)
@@ -350,7 +354,8 @@ class VAELSTM(GenerativeModel, nn.Module):
         """CNN^dec: canvas ``(batch, steps, units)`` -> frames ``(batch, 4 * steps, n_features)``."""
         if canvas.ndim != 3 or canvas.shape[-1] != self.config.units:
             raise ValueError(f"canvas: expected (batch, steps, {self.config.units}), got {tuple(canvas.shape)}")
-        return self.decoder(canvas)
+        frames = self.decoder(canvas)
+        return frames if self.skeleton is None else self.skeleton(frames, self.normalizer)
 
     # -- training ------------------------------------------------------------------------
 
@@ -458,8 +463,7 @@ class VAELSTM(GenerativeModel, nn.Module):
         with eval_mode(self):
             code = self.encode_control(pad_to_canvas(control))
             if prefix is None:
-                mu = torch.zeros(batch, 1, self.config.units, device=control.device)
-                log_var = torch.zeros_like(mu)
+                mu = log_var = torch.zeros(batch, 1, self.config.units, device=control.device)
             else:
                 self._check(prefix, "prefix", (self.config.n_pose, self.config.n_features), min_frames=POOLING)
                 if prefix.shape[0] != batch:
@@ -578,7 +582,7 @@ class VAELSTM(GenerativeModel, nn.Module):
                  tuple(out["control_code"].shape)),
                 (f"LSTM cell over {out['canvas'].shape[1]} steps: the motion canvas",
                  tuple(out["canvas"].shape)),
-                ("decoder: upsample, conv, ELU, upsample, conv (then cropped)",
+                (f"decoder: upsample, conv, ELU, upsample, conv (then cropped{', skeleton layer' * c.skeleton})",
                  tuple(out["reconstruction"].shape))]
 
 

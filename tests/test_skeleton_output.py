@@ -1,0 +1,143 @@
+"""The skeleton output layer (``models/skeleton_output.py``) and the VAE-LSTM's ``skeleton``
+option: in each sequence every bone keeps one length (its mean over the frames), directions
+and hips are the decoder's, the legs reach the decoder's ankles by IK, each sequence keeps
+its own body size, a pose already on a
+skeleton passes unchanged, and a model with it trains and generates bones that do not stretch."""
+import numpy as np
+import pytest
+import torch
+
+from motionlab import contacts, metrics, training
+from motionlab.models.skeleton_output import SkeletonOutput, reach
+from motionlab.models.vae_lstm import VAELSTMConfig
+from motionlab.representation import N_POSE, to_positions
+from motionlab.skeleton import LOCOMOTION
+
+from test_contact_term import FPS, prepared, vae_lstm  # noqa: F401 (prepared: the same small data set)
+
+
+def in_metres(features: torch.Tensor, normalizer) -> np.ndarray:
+    """The pose of normalised features, ``(..., frames, 21, 3)`` metres."""
+    return normalizer.denormalize(features.detach().double().numpy())[..., :N_POSE].reshape(
+        *features.shape[:-1], LOCOMOTION.n_joints, 3)
+
+
+def stretched(prepared, seed: int = 0, noise: float = 0.3) -> torch.Tensor:
+    """Training windows with noise on every joint: bones of changing lengths."""
+    windows = prepared.train.windows[:3]
+    return windows + noise * torch.randn(windows.shape, generator=torch.Generator().manual_seed(seed))
+
+
+LEG_JOINTS = {j for leg in contacts.LEGS for j in leg[1:]}             # knees, ankles, toes: placed by IK
+
+
+def test_in_each_sequence_every_bone_takes_its_mean_length_and_keeps_its_direction(prepared):
+    layer, norm = SkeletonOutput(), prepared.normalizer
+    x = stretched(prepared)
+    out = layer(x, norm)
+    assert out.shape == x.shape and torch.equal(out[..., N_POSE:], x[..., N_POSE:])        # the control passes
+    before, after = in_metres(x, norm), in_metres(out, norm)
+    mean_lengths = LOCOMOTION.bone_lengths(before).mean(axis=-2, keepdims=True)           # (3, 1, 20)
+    np.testing.assert_allclose(LOCOMOTION.bone_lengths(after), np.broadcast_to(mean_lengths, (*x.shape[:2], 20)),
+                               rtol=1e-4)
+    np.testing.assert_allclose(after[..., 0, :], before[..., 0, :], atol=1e-5)             # the hips stay
+    for parent, child in [bone for bone in LOCOMOTION.bones if bone[1] not in LEG_JOINTS]:
+        a = before[..., child, :] - before[..., parent, :]
+        b = after[..., child, :] - after[..., parent, :]
+        cosine = (a * b).sum(-1) / np.linalg.norm(a, axis=-1) / np.linalg.norm(b, axis=-1)
+        assert cosine.min() > 1 - 1e-5, (parent, child)
+
+
+def test_the_legs_reach_the_decoders_ankles_with_the_knee_on_its_side(prepared):
+    layer, norm = SkeletonOutput(), prepared.normalizer
+    x = stretched(prepared, noise=0.1)
+    before, after = in_metres(x, norm), in_metres(layer(x, norm), norm)
+    lengths = LOCOMOTION.bone_lengths(before).mean(axis=-2)                               # (3, 20)
+    child = [c for _, c in LOCOMOTION.bones]
+    checked = 0
+    for hip, knee, ankle, toe in contacts.LEGS:
+        leg = lengths[:, child.index(knee)] + lengths[:, child.index(ankle)]
+        within = np.linalg.norm(before[..., ankle, :] - after[..., hip, :], axis=-1) < 0.99 * leg[:, None]
+        np.testing.assert_allclose(after[..., ankle, :][within], before[..., ankle, :][within], atol=1e-4)
+        checked += within.sum()
+        aim = after[..., toe, :] - after[..., ankle, :]
+        wanted = before[..., toe, :] - after[..., ankle, :]
+        cosine = (aim * wanted).sum(-1) / np.linalg.norm(aim, axis=-1) / np.linalg.norm(wanted, axis=-1)
+        assert cosine.min() > 1 - 1e-5                                      # the foot points at the toe
+        bend = np.cross(before[..., knee, :] - after[..., hip, :], before[..., ankle, :] - after[..., hip, :])
+        new_bend = np.cross(after[..., knee, :] - after[..., hip, :], after[..., ankle, :] - after[..., hip, :])
+        assert ((bend * new_bend).sum(-1)[within] > 0).all()                # the knee bends to the same side
+    assert checked > 0.75 * 2 * np.prod(x.shape[:2])                        # most frames of the noisy legs
+
+
+def test_the_torch_ik_is_contacts_two_bone_ik():
+    rng = np.random.default_rng(0)
+    hip, knee, target = rng.normal(size=(3, 50, 3))
+    thigh, shin = rng.uniform(0.5, 1.0, size=(2, 50, 1))
+    knee = hip + thigh * (knee / np.linalg.norm(knee, axis=-1, keepdims=True))
+    ankle = knee + shin * np.array([0.0, -1.0, 0.0])
+    expected_knee, expected_ankle, reached = contacts.two_bone_ik(hip, knee, ankle, target)
+    new_knee, new_ankle = reach(*(torch.tensor(a) for a in (hip, knee, target, thigh, shin)))
+    np.testing.assert_allclose(new_ankle.numpy()[reached], expected_ankle[reached], atol=1e-9)
+    np.testing.assert_allclose(new_knee.numpy()[reached], expected_knee[reached], atol=1e-6)
+    assert 0 < reached.sum() < 50
+
+
+def test_each_sequence_keeps_its_own_body_size(prepared):
+    layer, norm = SkeletonOutput(), prepared.normalizer
+    units = torch.tensor(norm.denormalize(prepared.train.windows[:1].numpy()))
+    pose = units[..., :N_POSE].unflatten(-1, (21, 3))
+    big = units.clone()
+    big[..., :N_POSE] = (pose[..., :1, :] + 1.1 * (pose - pose[..., :1, :])).flatten(-2)     # 10 % larger about the hips
+    both = torch.tensor(norm.normalize(torch.cat([units, big]).numpy()), dtype=torch.float32)
+    lengths = LOCOMOTION.bone_lengths(in_metres(layer(both, norm), norm))[:, 0]
+    np.testing.assert_allclose(lengths[1] / lengths[0], 1.1, rtol=1e-4)
+
+
+def test_a_pose_on_a_skeleton_passes_unchanged(prepared):
+    layer, norm = SkeletonOutput(), prepared.normalizer
+    once = layer(stretched(prepared, seed=1), norm)
+    np.testing.assert_allclose(layer(once, norm).detach().numpy(), once.detach().numpy(), atol=1e-4)
+
+
+def test_gradients_are_finite_even_for_a_collapsed_bone(prepared):
+    layer, norm = SkeletonOutput(), prepared.normalizer
+    units = torch.tensor(norm.denormalize(prepared.train.windows[:1].numpy()), dtype=torch.float32)
+    units[..., 3:6] = units[..., 0:3]                            # joint 1 on top of the hips
+    x = torch.tensor(norm.normalize(units.numpy()), dtype=torch.float32, requires_grad=True)
+    out = layer(x, norm)
+    out.square().sum().backward()
+    assert torch.isfinite(out).all() and torch.isfinite(x.grad).all()
+
+
+def test_the_vae_lstm_option_is_off_by_default_and_needs_the_normalizer(prepared):
+    assert VAELSTMConfig().skeleton is False and vae_lstm(prepared, 0.0).skeleton is None
+    model = vae_lstm(prepared, 0.0, skeleton=True)
+    model.normalizer = None
+    with pytest.raises(ValueError, match="normalizer"):
+        model.loss(prepared.train.windows[:2])
+
+
+def test_a_vae_lstm_on_a_skeleton_trains_and_generates_bones_that_do_not_stretch(prepared):
+    config = training.TrainConfig(epochs=100, max_steps=40, lr=3e-3, batch_size=16, progress=False)
+    free, on_skeleton = vae_lstm(prepared, 0.0), vae_lstm(prepared, 0.0, skeleton=True)
+    drift = {}
+    for name, model in (("free", free), ("skeleton", on_skeleton)):
+        history = training.train(model, prepared, config)
+        assert history.train[-1]["loss"] < history.train[0]["loss"]
+        control = prepared.normalizer.denormalize(prepared.val.windows[0].double().numpy())[:, N_POSE:]
+        drift[name] = metrics.bone_length_drift(model.generate(control, n=2, seed=0).positions)
+        rebuilt = prepared.normalizer.denormalize(model.reconstruct(prepared.val.windows).double().numpy())
+        drift[name, "reconstructed"] = metrics.bone_length_drift(to_positions(rebuilt, FPS))
+    assert drift["skeleton"] < 1e-4 and drift["skeleton", "reconstructed"] < 1e-4
+    assert drift["free"] > 100 * drift["skeleton"]                    # the same model without it stretches
+
+
+def test_a_checkpoint_keeps_the_option(tmp_path, prepared):
+    model = vae_lstm(prepared, 0.0, skeleton=True)
+    path = tmp_path / "vae_lstm.pt"
+    training.save_checkpoint(path, model, prepared)
+    loaded = training.load_checkpoint(path).model
+    assert loaded.config.skeleton is True
+    x = prepared.val.windows[:2]
+    torch.testing.assert_close(loaded.reconstruct(x), model.reconstruct(x))
