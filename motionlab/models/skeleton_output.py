@@ -30,6 +30,7 @@ from __future__ import annotations
 import torch
 from torch import nn
 
+from ..contacts import LEGS
 from ..representation import N_POSE
 from ..skeleton import LOCOMOTION
 
@@ -69,8 +70,7 @@ class SkeletonOutput(nn.Module):
         super().__init__()
         self.children_ = [child for _, child in LOCOMOTION.bones]
         self.parents_ = [parent for parent, _ in LOCOMOTION.bones]
-        self.legs = [tuple(LOCOMOTION.index(side + name) for name in ("UpLeg", "Leg", "Foot", "ToeBase"))
-                     for side in ("Left", "Right")]
+        self.legs = LEGS                                   # hip, knee, ankle, toe of each leg
 
     def lengths(self, pose: torch.Tensor) -> torch.Tensor:
         """Each sequence's bone lengths: ``pose`` ``(..., frames, 21, 3)`` in metres ->
@@ -89,7 +89,7 @@ class SkeletonOutput(nn.Module):
         for k, (parent, child) in enumerate(zip(self.parents_, self.children_)):   # parents come first
             bone = pose[..., child, :] - pose[..., parent, :]
             placed[child] = placed[parent] + lengths[..., k, None] * _unit(bone)
-        bone_of = {child: k for k, child in enumerate(self.children_)}
+        bone_of = {child: k for k, child in enumerate(self.children_)}     # the legs again, by IK this time
         for hip, knee, ankle, toe in self.legs:
             thigh, shin, foot = (lengths[..., bone_of[j], None] for j in (knee, ankle, toe))
             placed[knee], placed[ankle] = reach(placed[hip], pose[..., knee, :], pose[..., ankle, :], thigh, shin)
