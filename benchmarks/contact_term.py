@@ -12,7 +12,8 @@ Each model is trained by its recipe of ``make checkpoints`` (the Makefile; the c
 ``python -m motionlab.train``) without the term and with each weight of ``--weights``
 (``--set contact_weight=W``; defaults :data:`WEIGHTS`, chosen from the term's scale against
 each loss), for the VAE-LSTM also with each of ``--bone-weights`` (``--set bone_weight=W``:
-the squared error of the reconstruction's bone lengths, cm²; default 0, off), for each of
+the squared error of the reconstruction's bone lengths, cm²; default 0, off; with ``--skeleton``
+every VAE-LSTM run has the skeleton output layer, ``--set skeleton=true``), for each of
 ``--seeds`` (the command line's seed: the training clips and the
 first weights), ``--jobs`` trainings at a time in their own processes, their checkpoints and
 logs in ``--out`` (a checkpoint already there is reused). ``--epochs`` changes the
