@@ -141,3 +141,15 @@ def test_a_checkpoint_keeps_the_option(tmp_path, prepared):
     assert loaded.config.skeleton is True
     x = prepared.val.windows[:2]
     torch.testing.assert_close(loaded.reconstruct(x), model.reconstruct(x))
+
+
+@pytest.mark.parametrize("distance", [0.0, 0.5, 1.5, 1.5 + 1e-9, 3.0])    # on the hip, bent, straight, beyond
+def test_the_torch_ik_has_finite_gradients_at_any_reach(distance):
+    hip = torch.zeros(1, 3, dtype=torch.float64)
+    knee = torch.tensor([[0.0, -0.7, 0.2]], dtype=torch.float64)
+    target = torch.tensor([[0.0, -distance, 0.0]], dtype=torch.float64, requires_grad=True)
+    thigh, shin = (torch.full((1, 1), 0.75, dtype=torch.float64, requires_grad=True) for _ in range(2))
+    new_knee, new_ankle = reach(hip, knee, target, thigh, shin)
+    (new_knee.sum() + new_ankle.sum()).backward()
+    assert all(torch.isfinite(t).all() for t in (new_knee, new_ankle, target.grad, thigh.grad, shin.grad))
+    assert (new_ankle - hip).norm() <= 1.5 + 1e-9                        # never beyond the leg's length

@@ -38,8 +38,8 @@ EPS_M = 1e-6
 """A bone the decoder collapsed to a point keeps a direction of zero length, not NaN."""
 
 STRAIGHT = 1e-3
-"""How far short of straight (a fraction of its length) an IK leg may reach: at full
-extension the angle's derivative is infinite."""
+"""How far short of straight (a fraction of its length) an IK leg may reach, and how near the
+hip it may fold (at full extension the angle's derivative is infinite; at the hip, 0 / 0)."""
 
 
 def _unit(v: torch.Tensor) -> torch.Tensor:
@@ -54,7 +54,8 @@ def reach(hip, knee, target, thigh, shin) -> tuple[torch.Tensor, torch.Tensor]:
     to_target = target - hip
     direction = _unit(to_target)
     d = to_target.norm(dim=-1, keepdim=True)
-    d = torch.minimum(torch.maximum(d, (thigh - shin).abs() * (1 + STRAIGHT)), (thigh + shin) * (1 - STRAIGHT))
+    shortest = torch.maximum((thigh - shin).abs() * (1 + STRAIGHT), (thigh + shin) * STRAIGHT)
+    d = torch.minimum(torch.maximum(d, shortest), (thigh + shin) * (1 - STRAIGHT))
     pole = knee - hip
     pole = _unit(pole - (pole * direction).sum(-1, keepdim=True) * direction)
     cos_a = ((thigh ** 2 + d ** 2 - shin ** 2) / (2 * thigh * d)).clamp(-1 + STRAIGHT, 1 - STRAIGHT)
