@@ -38,6 +38,7 @@ import torch
 from .. import checks, contacts
 from ..representation import CONTROL, N_POSE, to_positions
 from ..skeleton import LOCOMOTION
+from .skeleton_output import bone_lengths
 
 N_FEATURES = N_POSE + 3
 """Features per frame: 63 root-local joint coordinates, then the 3 control values."""
@@ -145,12 +146,9 @@ def bone_term(model, prediction: torch.Tensor, target: torch.Tensor) -> torch.Te
     free to stretch a bone; this asks the reconstruction's bones for the data's lengths,
     which :func:`motionlab.contacts.fit_bones` restores only after the fact."""
     prediction, target = _in_data_units(model, "bone_weight", prediction, target)
-    child = [j for _, j in LOCOMOTION.bones]                  # Skeleton.bone_lengths, in torch
-    parent = LOCOMOTION.parents[child].tolist()
 
     def lengths(x: torch.Tensor) -> torch.Tensor:
-        pose = x[..., :N_POSE].unflatten(-1, (LOCOMOTION.n_joints, 3))
-        return (pose[..., child, :] - pose[..., parent, :]).norm(dim=-1)
+        return bone_lengths(x[..., :N_POSE].unflatten(-1, (LOCOMOTION.n_joints, 3)))
 
     return (100 * (lengths(prediction) - lengths(target).detach())).square().mean()
 

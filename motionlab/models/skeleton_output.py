@@ -42,6 +42,16 @@ STRAIGHT = 1e-3
 hip it may fold (at full extension the angle's derivative is infinite; at the hip, 0 / 0)."""
 
 
+CHILDREN = [child for _, child in LOCOMOTION.bones]
+PARENTS = [parent for parent, _ in LOCOMOTION.bones]
+
+
+def bone_lengths(pose: torch.Tensor) -> torch.Tensor:
+    """:meth:`Skeleton.bone_lengths` in torch: ``pose`` ``(..., 21, 3)`` -> ``(..., 20)``,
+    ``LOCOMOTION.bones`` order, in the units of ``pose``."""
+    return (pose[..., CHILDREN, :] - pose[..., PARENTS, :]).norm(dim=-1)
+
+
 def _unit(v: torch.Tensor) -> torch.Tensor:
     return v / v.norm(dim=-1, keepdim=True).clamp_min(EPS_M)
 
@@ -69,14 +79,14 @@ class SkeletonOutput(nn.Module):
 
     def __init__(self):
         super().__init__()
-        self.children_ = [child for _, child in LOCOMOTION.bones]
-        self.parents_ = [parent for parent, _ in LOCOMOTION.bones]
-        self.legs = LEGS                                   # hip, knee, ankle, toe of each leg
+        self.bone_of = {child: k for k, child in enumerate(CHILDREN)}
+        self.by_ik = {j for leg in LEGS for j in leg[1:]}   # knees, ankles, toes: placed by the legs' IK
 
-    def lengths(self, pose: torch.Tensor) -> torch.Tensor:
+    @staticmethod
+    def lengths(pose: torch.Tensor) -> torch.Tensor:
         """Each sequence's bone lengths: ``pose`` ``(..., frames, 21, 3)`` in metres ->
         ``(..., 1, 20)``, each bone's mean length over the frames, ``LOCOMOTION.bones`` order."""
-        return (pose[..., self.children_, :] - pose[..., self.parents_, :]).norm(dim=-1).mean(dim=-2, keepdim=True)
+        return bone_lengths(pose).mean(dim=-2, keepdim=True)
 
     def forward(self, features: torch.Tensor, normalizer) -> torch.Tensor:
         if normalizer is None:
@@ -87,12 +97,12 @@ class SkeletonOutput(nn.Module):
         pose = (features[..., :N_POSE] * std + mean).unflatten(-1, (LOCOMOTION.n_joints, 3))
         lengths = self.lengths(pose)
         placed = [pose[..., 0, :]] + [None] * (LOCOMOTION.n_joints - 1)
-        for k, (parent, child) in enumerate(zip(self.parents_, self.children_)):   # parents come first
-            bone = pose[..., child, :] - pose[..., parent, :]
-            placed[child] = placed[parent] + lengths[..., k, None] * _unit(bone)
-        bone_of = {child: k for k, child in enumerate(self.children_)}     # the legs again, by IK this time
-        for hip, knee, ankle, toe in self.legs:
-            thigh, shin, foot = (lengths[..., bone_of[j], None] for j in (knee, ankle, toe))
+        for k, (parent, child) in enumerate(zip(PARENTS, CHILDREN)):   # parents come first
+            if child not in self.by_ik:
+                bone = pose[..., child, :] - pose[..., parent, :]
+                placed[child] = placed[parent] + lengths[..., k, None] * _unit(bone)
+        for hip, knee, ankle, toe in LEGS:
+            thigh, shin, foot = (lengths[..., self.bone_of[j], None] for j in (knee, ankle, toe))
             placed[knee], placed[ankle] = reach(placed[hip], pose[..., knee, :], pose[..., ankle, :], thigh, shin)
             placed[toe] = placed[ankle] + foot * _unit(pose[..., toe, :] - placed[ankle])
         on_skeleton = (torch.stack(placed, dim=-2).flatten(-2) - mean) / std
