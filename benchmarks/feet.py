@@ -5,10 +5,13 @@ lengths, then the feet locked: ``motionlab.contacts``), walking and running.
     python benchmarks/feet.py --data ../shared/mocap/cmu   # also the 4-s windows of real clips
     python benchmarks/feet.py --paths side-step circle     # other preset paths
     python benchmarks/feet.py --data-bones                 # finished on the data's bone lengths
+    python benchmarks/feet.py --samples 12 --checkpoint DFN=runs/dfn.pt   # a model of your own, 12 bodies
 
 Section 1. Every model of notebook 08 (``comparison.ENTRIES``) follows the built-in walk
 (1.5 m/s) and run (2.2 m/s) presets (or ``--paths``: any of ``synthetic.PRESETS``) for 10 s, from four held-out bodies' standing
-half-second; the four bodies on the same paths are the data's rows. A model without a
+half-second (``--samples``: more bodies); the bodies on the same paths are the data's rows.
+``--checkpoint LABEL=PATH`` measures a checkpoint of your own in the place of the shipped
+model ``LABEL`` (a label of ``comparison.ENTRIES``), and only the models named so. A model without a
 control draws freely (the VAE: 4-s windows; DFN continues the standing frames); Glow draws
 the path's first 4-s window. The flows are measured at every temperature (and their
 notebook's); the others at their notebook's. Per row: foot skating (``metrics.foot_skating``, the data's planted
@@ -37,7 +40,8 @@ from dataclasses import replace
 
 import numpy as np
 
-from motionlab import comparison, contacts, experiments, metrics, synthetic
+from motionlab import comparison, contacts, experiments, metrics, recipes, synthetic, training
+from motionlab import models as models_module
 from motionlab.representation import N_POSE, to_positions
 
 FPS = comparison.FPS
@@ -74,10 +78,10 @@ def line(label: str, m: dict, reach: float | None = None) -> str:
             + ("" if reach is None else f"{100 * reach:.0f} %") + " |")
 
 
-def samples_on(path: str, models: dict) -> tuple[np.ndarray, dict]:
-    """The data's bodies on a preset path and every model's samples on it, at every temperature
-    for the flows: ``(data (n, frames, 66), {(label, temperature): features})``."""
-    walks = experiments.preset_walks(path, SECONDS, FPS, N, lead_frames=comparison.PREFIX_FRAMES)
+def samples_on(path: str, models: dict, n: int = N) -> tuple[np.ndarray, dict]:
+    """``n`` of the data's bodies on a preset path and every model's samples on it, at every
+    temperature for the flows: ``(data (n, frames, 66), {(label, temperature): features})``."""
+    walks = experiments.preset_walks(path, SECONDS, FPS, n, lead_frames=comparison.PREFIX_FRAMES)
     prefix, truth = walks[:, :comparison.PREFIX_FRAMES], walks[:, comparison.PREFIX_FRAMES:]
     out = {}
     for label, (entry, model) in models.items():
@@ -85,20 +89,20 @@ def samples_on(path: str, models: dict) -> tuple[np.ndarray, dict]:
         temperatures = sorted({*TEMPERATURES, entry.temperature}) if flow else (entry.temperature,)
         control = truth[0, :entry.window or truth.shape[1], N_POSE:]
         for t in temperatures:
-            out[label, t] = comparison.respond(replace(entry, temperature=t), model, control, prefix, n=N)
+            out[label, t] = comparison.respond(replace(entry, temperature=t), model, control, prefix, n=n)
     return truth, out
 
 
-def section_1(models: dict, paths=PATHS, data_bones: bool = False) -> dict:
+def section_1(models: dict, paths=PATHS, data_bones: bool = False, n: int = N) -> dict:
     print(f"## 1. Raw and finished (bones fitted, feet locked), on the built-in {' and '.join(paths)} paths "
-          f"({SECONDS:g} s, {N} samples; the data: {N} held-out bodies"
+          f"({SECONDS:g} s, {n} samples; the data: {n} held-out bodies"
           + ("; finished on the data's bone lengths" if data_bones else "") + ")\n")
     print("| model, path, temperature | skating (cm/s) | / data's | GMD ratio | stepping / data | leg swing / data "
           "| bone drift (%) | foot acc. p99 / max(data, raw) | IK out of reach |")
     print("|---|---|---|---|---|---|---|---|---|")
     kept = {}
     for path in paths:
-        truth, generated = samples_on(path, models)
+        truth, generated = samples_on(path, models, n)
         floor = contacts.planted_heights(to_positions(truth, FPS))
         body = contacts.body_lengths(to_positions(truth, FPS)) if data_bones else None
         print(line(f"**data**, {path}", measures(truth, truth, floor)))
@@ -157,6 +161,22 @@ def section_3(models: dict, folder: str) -> None:
               f"| {r['foot acceleration (m/s²)']:.0f} | {reach} |")
 
 
+def own_models(parser: argparse.ArgumentParser, pairs: list[str]) -> dict:
+    """``{label: (entry, model)}`` for ``--checkpoint LABEL=PATH`` arguments."""
+    entries = {e.label: e for e in comparison.ENTRIES}
+    models = {}
+    for pair in pairs:
+        label, _, path = pair.partition("=")
+        if label not in entries or not path:
+            parser.error(f"--checkpoint: expected LABEL=PATH with LABEL one of {', '.join(entries)}, got {pair!r}")
+        model = training.load_checkpoint(path).model
+        kind = models_module.card(recipes.recipe(entries[label].name).model).model
+        if not isinstance(model, kind):
+            parser.error(f"--checkpoint: {path} holds a {type(model).__name__}, not the {kind.__name__} of {label}")
+        models[label] = (entries[label], model)
+    return models
+
+
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--data", default=None, help="a folder of .bvh / .amc files for section 3")
@@ -166,9 +186,19 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--data-bones", action="store_true",
                         help="finish every sample on the data's bone lengths (contacts.body_lengths of the "
                              "data's bodies) instead of its own median ones")
+    parser.add_argument("--samples", type=int, default=N, metavar="N",
+                        help=f"bodies per path in section 1, 1 to 64 (default: {N})")
+    parser.add_argument("--checkpoint", action="append", default=[], metavar="LABEL=PATH",
+                        help="measure the checkpoint PATH in the place of the shipped model LABEL "
+                             f"({', '.join(e.label for e in comparison.ENTRIES)}); repeat for several. "
+                             "Only the models named are measured")
     args = parser.parse_args(argv)
+    if not 1 <= args.samples <= 64:
+        parser.error(f"--samples: expected 1 to 64, got {args.samples}")
     models = comparison.load_models()
-    kept = section_1(models, args.paths, args.data_bones)
+    if args.checkpoint:
+        models = own_models(parser, args.checkpoint)
+    kept = section_1(models, args.paths, args.data_bones, args.samples)
     section_2(kept)
     if args.data:
         section_3(models, args.data)

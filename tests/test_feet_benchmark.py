@@ -1,0 +1,38 @@
+"""benchmarks/feet.py's options: more bodies per path, and a checkpoint of one's own in the
+place of a shipped model."""
+import importlib.util
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope="module")
+def feet():
+    spec = importlib.util.spec_from_file_location("feet", ROOT / "benchmarks" / "feet.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+@pytest.mark.parametrize("argv, says", [
+    (["--checkpoint", "Nope=x.pt"], "LABEL one of"),
+    (["--checkpoint", "DFN"], "LABEL=PATH"),
+    (["--checkpoint", f"DFN={ROOT / 'motionlab' / 'checkpoints' / 'glow.pt'}"], "holds a Glow, not the DFN"),
+    (["--samples", "0"], "--samples: expected 1 to 64"),
+])
+def test_bad_arguments_are_refused_by_name(feet, capsys, argv, says):
+    with pytest.raises(SystemExit):
+        feet.main(argv)
+    assert says in capsys.readouterr().err
+
+
+def test_a_checkpoint_of_ones_own_is_measured_alone_on_as_many_bodies_as_asked(feet, capsys):
+    feet.main(["--samples", "2", "--paths", "walk", "--checkpoint",
+               f"DFN={ROOT / 'motionlab' / 'checkpoints' / 'dfn.pt'}"])
+    out = capsys.readouterr().out
+    assert "2 samples; the data: 2 held-out bodies" in out
+    rows = [line for line in out.splitlines() if line.startswith("| DFN, walk")]
+    assert len(rows) == 3                                  # raw, finished, and the lock alone (section 2)
+    assert "MoGlow" not in out and "VAE-LSTM" not in out   # only the model named
