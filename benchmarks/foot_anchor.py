@@ -2,17 +2,18 @@
 :mod:`motionlab.models.anchor`) against the shipped models: the likelihood, the feet, the
 bones and the claims.
 
+    python -m motionlab.recipes moglow_foot_anchor --folder data/cache  # the shipped one: legs anchored, m seen
     python -m motionlab.train moglow --synthetic-clips 200 --epochs 60 --lr 3e-3 --batch-size 32 --half \\
-        --set foot_anchor=true --out data/cache/moglow_foot_anchor.pt     # the shipped recipe, anchored
-    python -m motionlab.train moglow --synthetic-clips 200 --epochs 60 --lr 3e-3 --batch-size 32 --half \\
-        --set foot_anchor=true anchor_conditioning=true --out data/cache/moglow_anchor_cond.pt  # m seen too
+        --set foot_anchor=true --out data/cache/moglow_feet_only.pt      # the first design: the feet alone
     python -m motionlab.train glow --synthetic-clips 200 --stride 1.0 --epochs 20 --lr 2e-3 --batch-size 32 \\
-        --half --set foot_anchor=true --out data/cache/glow_foot_anchor.pt  # Glow's shipped recipe, anchored
+        --half --set foot_anchor=true leg_anchor=true --out data/cache/glow_foot_anchor.pt  # Glow's recipe, anchored
     python benchmarks/foot_anchor.py data/cache/moglow_foot_anchor.pt data/cache/glow_foot_anchor.pt
 
-``foot_anchor`` makes the flow model each ankle's and toe's ``x, z`` less where it would be
-had it stayed planted since the previous frame: a shift by a function of the conditioning,
-so the likelihood stays exact (log-determinant 0). For the shipped MoGlow (history dropout
+``foot_anchor`` makes the flow model each ankle's (and, without ``leg_anchor``, toe's) ``x, z``
+less where it would be had it stayed planted since the previous frame: a shift by a function
+of the conditioning, so the likelihood stays exact (log-determinant 0); ``leg_anchor`` models
+the toes less their ankles and the knees less the midpoint of hip and ankle, in the same
+frame (still log-determinant 0). For the shipped MoGlow (history dropout
 0.95) and each checkpoint given: the test NLL (bits per predicted frame on the held-out
 built-in windows, as notebook 08's table); along the walk and run presets for 10 s
 (4 samples; the data's four bodies beside) at temperatures 0, 0.3 and 1: foot skating raw

@@ -69,9 +69,10 @@ ENTRIES = (Entry("vae", "VAE", "Motegi 2018", control=False, prefix=False, tempe
            Entry("dfn", "DFN", "Chen 2020", control=False, prefix=True, temperature=1.0))
 """The models compared, in the course's order. Temperatures are the notebooks': MoGlow 0.3
 (notebook 06), Glow 0.5 (notebook 05), the others their model's own (1; the LSTM is
-deterministic). "MoGlow (anchored)" is MoGlow trained with its feet modelled relative to
-where they would be had they stayed planted (``MoGlowConfig.foot_anchor``: an exact
-likelihood still), the shipped recipe otherwise."""
+deterministic). "MoGlow (anchored)" is MoGlow trained with its ankles modelled relative to
+where they would be had they stayed planted, its toes and knees relative to the leg
+(``MoGlowConfig.foot_anchor``, ``leg_anchor``, ``anchor_conditioning``: an exact likelihood
+still), the shipped recipe otherwise."""
 
 
 def evaluation_windows(source: str = "synthetic", stride_s: float = 1.0) -> np.ndarray:

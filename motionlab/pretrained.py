@@ -39,8 +39,9 @@ MOGLOW_VARIANTS = {"dropout": "moglow", "no_dropout": "moglow_no_dropout", "mark
 """The MoGlow models notebook 06 compares: variant -> the recipe (:mod:`motionlab.recipes`) that
 says how it differs from the base config and how it is trained. ``markov_matched`` is the
 Markov model widened to as many weights as the laptop LSTM model (803 k), for a fair
-comparison of the two at the laptop size. ``foot_anchor`` models each foot relative to
-where it would be had it stayed planted (``MoGlowConfig.foot_anchor``; notebook 08)."""
+comparison of the two at the laptop size. ``foot_anchor`` models each ankle relative to
+where it would be had it stayed planted and the toes and knees relative to the leg
+(``MoGlowConfig.foot_anchor``, ``leg_anchor``, ``anchor_conditioning``; notebooks 06, 08)."""
 
 NAMES = {name: recipe.file for name, recipe in RECIPES.items()}
 """Model name -> file in :data:`CHECKPOINTS`, from the recipes (:data:`motionlab.recipes.RECIPES`

@@ -8,6 +8,7 @@ import pytest
 import torch
 
 from motionlab import contacts, data, training
+from motionlab.contacts import LEGS
 from motionlab.models.anchor import FOOT_XZ as _FOOT_XZ
 from motionlab.models.flows import ActNorm, ConvCouplingNet
 from motionlab.models.glow import Glow, GlowConfig
@@ -17,6 +18,7 @@ from motionlab.skeleton import FEET
 SMALL = MoGlowConfig(window=16, history=4, steps=3, hidden=16)
 ANCHORED = replace(SMALL, foot_anchor=True)
 SEEN = replace(ANCHORED, anchor_conditioning=True)                   # the networks see m too
+LEGGED = replace(SEEN, leg_anchor=True)                              # toes and knees relative to the leg
 FPS = SMALL.fps
 
 
@@ -102,7 +104,7 @@ def test_the_likelihood_stays_exact(walker):
     assert np.isfinite(nll)
 
 
-@pytest.mark.parametrize("config", [ANCHORED, SEEN], ids=["anchored", "m seen"])
+@pytest.mark.parametrize("config", [ANCHORED, SEEN, LEGGED], ids=["anchored", "m seen", "legs too"])
 def test_sampling_inverts_the_likelihoods_map_and_the_stream_follows(walker, config):
     features, normalizer = walker
     model = trained_like(config, normalizer)
@@ -129,13 +131,14 @@ def test_generate_makes_finite_motion(walker):
     assert np.isfinite(markov.generate(features[10:30, -3:], prefix=features[:10], temperature=0.0).features).all()
 
 
-def test_a_checkpoint_loads_back_with_its_shift(walker, tmp_path):
+@pytest.mark.parametrize("config", [ANCHORED, LEGGED], ids=["anchored", "legs too"])
+def test_a_checkpoint_loads_back_with_its_shift(walker, tmp_path, config):
     features, normalizer = walker
-    model = trained_like(ANCHORED, normalizer)
+    model = trained_like(config, normalizer)
     training.save_checkpoint(tmp_path / "anchored.pt", model, normalizer=normalizer, description={})
     loaded = training.load_checkpoint(tmp_path / "anchored.pt").model.eval()
     x = windows(features, normalizer)
-    assert loaded.config.foot_anchor and torch.allclose(loaded.log_likelihood(x), model.log_likelihood(x))
+    assert loaded.config == config and torch.allclose(loaded.log_likelihood(x), model.log_likelihood(x))
 
 
 def test_errors_name_foot_anchor(walker):
@@ -175,6 +178,68 @@ def test_anchor_conditioning_needs_the_last_pose_and_the_anchor(walker):
         MoGlowConfig(anchor_conditioning=True)
 
 
+# -- leg_anchor: toes and knees modelled relative to the leg of their own frame ---------
+
+def in_metres(values, model, normalizer):
+    """Modelled values ``(..., n_modelled)`` back in the data's units, as pose features ``(..., 63)``."""
+    pose = torch.zeros(values.shape[:-1] + (63,), dtype=torch.float64)
+    pose[..., model.modelled] = values.double()
+    return pose * torch.tensor(normalizer.std[:63]) + torch.tensor(normalizer.mean[:63])
+
+
+def test_leg_anchor_models_the_toe_less_its_ankle_and_the_knee_less_the_legs_midpoint(walker):
+    features, normalizer = walker
+    legged, feet_only = (trained_like(config, normalizer) for config in (LEGGED, SEEN))
+    x = windows(features, normalizer, frames=SMALL.history + 1)
+    poses, controls = x[..., legged.modelled], x[..., legged.control]
+    with torch.no_grad():
+        values = legged._anchored(poses[:, 1:], poses[:, :-1], controls[:, :-1], -1.0)
+        anchored = feet_only._anchored(poses[:, 1:], poses[:, :-1], controls[:, :-1], -1.0)
+    # the flow's values read in metres: the toe less its ankle, ...
+    out, pose = in_metres(values, legged, normalizer), in_metres(poses[:, 1:], legged, normalizer)
+    for hip, knee, ankle, toe in LEGS:
+        for axis in (0, 2):
+            assert torch.allclose(out[..., 3 * toe + axis], pose[..., 3 * toe + axis] - pose[..., 3 * ankle + axis], atol=1e-5)
+        for axis in range(3):                    # ... the knee less the midpoint of its hip and ankle
+            midpoint = (pose[..., 3 * hip + axis] + pose[..., 3 * ankle + axis]) / 2
+            knee_value = out[..., 3 * knee + axis]
+            assert torch.allclose(knee_value, pose[..., 3 * knee + axis] - midpoint, atol=1e-5)
+    ankles = [legged.modelled.tolist().index(3 * leg[2] + axis) for leg in LEGS for axis in (0, 2)]
+    assert torch.equal(values[..., ankles], anchored[..., ankles])      # the ankles less m, as before
+    others = [i for i in range(legged.n_modelled) if i not in legged.leg_targets.tolist() + ankles]
+    assert torch.equal(values[..., others], poses[:, 1:, others])       # nothing else moves
+
+
+def test_leg_anchor_keeps_the_likelihood_exact(walker):
+    # within a frame the toes and knees are shifted by hips and ankles that are not shifted by
+    # them: the map's Jacobian is the identity plus a nilpotent part, log-determinant 0
+    features, normalizer = walker
+    model = trained_like(LEGGED, normalizer)
+    x = windows(features, normalizer, n=1, frames=2)
+    poses, controls = x[..., model.modelled], x[..., model.control]
+    jacobian = torch.autograd.functional.jacobian(
+        lambda v: model._anchored(v[None, None], poses[:, 0], controls[:, 0], -1.0)[0, 0], poses[0, 1])
+    assert torch.equal(torch.diagonal(jacobian), torch.ones(model.n_modelled))
+    assert torch.slogdet(jacobian.double()).logabsdet.abs() < 1e-9
+    off = jacobian - torch.eye(model.n_modelled)
+    assert off.abs().max() > 0.1 and torch.equal(off @ off, torch.zeros_like(off))   # it shifts; nilpotent
+    values = model._anchored(poses[:, 1:], poses[:, :1], controls[:, :1], -1.0)
+    assert torch.allclose(model._anchored(values, poses[:, :1], controls[:, :1], 1.0), poses[:, 1:], atol=1e-5)
+    assert "leg_anchor" in model.describe()[-1] and "leg_anchor" not in " ".join(MoGlow(SEEN).describe())
+
+
+def test_leg_anchor_errors_name_it(walker):
+    with pytest.raises(ValueError, match="leg_anchor: .*needs foot_anchor=True"):
+        MoGlowConfig(leg_anchor=True)
+    with pytest.raises(ValueError, match="leg_anchor"):
+        MoGlowConfig(foot_anchor=True, leg_anchor="yes")
+    with pytest.raises(ValueError, match="leg_anchor"):
+        MoGlowConfig(foot_anchor=True, leg_anchor=True, constant_features=(0, 2, 3 * LEGS[0][1] + 1))
+    with pytest.raises(ValueError, match="leg_anchor"):
+        GlowConfig(leg_anchor=True)
+    assert MoGlowConfig().leg_anchor is False and GlowConfig().leg_anchor is False
+
+
 # -- Glow: the previous frame is modelled, so the map is triangular over the window -----
 
 GLOW = GlowConfig(window=16, levels=2, steps=2, hidden=16)
@@ -195,15 +260,21 @@ def glow_like(config, normalizer, x, seed=0):
     return model.eval()
 
 
-def test_glow_the_window_map_is_triangular_with_a_unit_diagonal(walker):
+@pytest.mark.parametrize("legs", [False, True], ids=["feet", "legs too"])
+def test_glow_the_window_map_is_triangular_with_a_unit_diagonal(walker, legs):
     features, normalizer = walker
-    model = Glow(GLOW_ANCHORED)
+    model = Glow(replace(GLOW_ANCHORED, leg_anchor=legs))
     model.normalizer = normalizer
     x = windows(features, normalizer, n=1, frames=8)
     values, control = model.split_features(x)
     jacobian = torch.autograd.functional.jacobian(
         lambda v: model.anchor_window(v.view_as(values), control, -1.0).flatten(), values.flatten())
-    assert torch.equal(torch.triu(jacobian, 1), torch.zeros_like(jacobian))     # frame t sees frames <= t only
+    n = values.shape[-1]
+    by_frame = jacobian.unflatten(0, (8, n)).unflatten(2, (8, n)).abs().sum((1, 3))
+    assert torch.equal(torch.triu(by_frame, 1), torch.zeros_like(by_frame))     # frame t sees frames <= t only
+    within = jacobian.unflatten(0, (8, n)).unflatten(2, (8, n))[3, :, 3] - torch.eye(n)
+    assert torch.equal(within @ within, torch.zeros_like(within))              # within a frame: nilpotent
+    assert within.abs().max() > (0.1 if legs else -1.0)
     assert torch.equal(torch.diagonal(jacobian), torch.ones(jacobian.shape[0]))
     assert torch.slogdet(jacobian.double()).logabsdet.abs() < 1e-9
     assert (jacobian - torch.eye(jacobian.shape[0])).abs().max() > 0.1         # and it does shift the feet
@@ -231,10 +302,11 @@ def test_glow_the_likelihood_is_the_plain_flows_of_the_window_less_m(walker):
     assert np.isfinite(anchored.nll(x, normalizer)["bits/frame"])
 
 
-def test_glow_sampling_inverts_the_likelihoods_map(walker):
+@pytest.mark.parametrize("legs", [False, True], ids=["feet", "legs too"])
+def test_glow_sampling_inverts_the_likelihoods_map(walker, legs):
     features, normalizer = walker
     x = windows(features, normalizer)
-    model = glow_like(GLOW_ANCHORED, normalizer, x)
+    model = glow_like(replace(GLOW_ANCHORED, leg_anchor=legs), normalizer, x)
     z = torch.randn(3, 16 * model.n_modelled, generator=torch.Generator().manual_seed(1))
     sampled = model.decode(z, x[..., -3:])
     back, _ = model.encode(sampled)

@@ -33,7 +33,8 @@ of each ankle and toe in every frame but the first, the value less where that jo
 be had it stayed put since the previous frame (:mod:`motionlab.models.anchor`). Here the
 previous frame is part of the window the flow models, not conditioning: the map is
 triangular over time with ones on its diagonal, so its log-determinant is 0 and the
-likelihood stays exact; sampling inverts it frame by frame.
+likelihood stays exact; sampling inverts it frame by frame. With ``leg_anchor`` the toes and
+knees are modelled relative to their ankles and hips too.
 """
 from __future__ import annotations
 
@@ -71,6 +72,9 @@ class GlowConfig:
         foot_anchor: model the feet's ``x`` and ``z`` less where they would be had they
             stayed planted since the previous frame (:mod:`motionlab.models.anchor`); needs
             ``conditional``, the locomotion features and the model's normaliser.
+        leg_anchor: with ``foot_anchor``, each toe's ``x, z`` modelled less its ankle's and
+            each knee less the midpoint of its hip and ankle, in the same frame, every frame
+            but the first (:mod:`motionlab.models.anchor`).
     """
 
     n_features: int = 66
@@ -84,6 +88,7 @@ class GlowConfig:
     conditional: bool = True
     constant_features: tuple[int, ...] = (0, 2)
     foot_anchor: bool = False
+    leg_anchor: bool = False
 
     def __post_init__(self):
         checks.config(self)
@@ -106,6 +111,7 @@ class GlowConfig:
             raise ValueError("constant_features: fewer than 2 features would be left to model")
         if self.foot_anchor and not self.conditional:
             raise ValueError("foot_anchor: the shift is a function of the control; needs conditional=True")
+        anchor.check_leg_config(self)
         anchor.check_config(self)
 
     @classmethod
@@ -282,6 +288,8 @@ class Glow(FootAnchor, MotionFlow):
         if self.config.foot_anchor:
             lines.append("before the flow: the feet's x, z less where they would be had they stayed planted "
                          "(foot_anchor: triangular over the window, log-determinant 0)")
+        if self.config.leg_anchor:
+            lines.append("and the toes less their ankles, the knees less the midpoint of hip and ankle (leg_anchor)")
         return lines
 
 

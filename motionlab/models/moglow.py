@@ -52,7 +52,9 @@ pose and the control, which are conditioning, so the shift's log-determinant is 
 likelihood stays exact (``m`` takes the true previous pose, whether or not dropout hides it
 from the networks). Sampling adds it back frame by frame,
 :class:`~motionlab.engine.stream.MoGlowStream` too. With ``anchor_conditioning`` (not in
-the paper either) ``m`` is also part of every coupling's conditioning, never dropped.
+the paper either) ``m`` is also part of every coupling's conditioning, never dropped; with
+``leg_anchor`` the toes and knees are modelled relative to the ankles and hips of their
+frame, so that a held foot does not stretch the leg.
 
 Everything here reuses :mod:`motionlab.models.flows` unchanged: the coupling network is
 the pluggable part (:class:`LSTMCouplingNet` here; the Markovian variant of §4.2 uses
@@ -110,7 +112,10 @@ class MoGlowConfig:
         anchor_conditioning: with ``foot_anchor``, the coupling networks also see ``m``
             (where each foot would be had it stayed planted: where it is), never dropped:
             the history, dropped, rarely shows them where a foot is relative to the body.
-            Not in the paper; measured in the README, not shipped.
+            Not in the paper; measured in the README.
+        leg_anchor: with ``foot_anchor``, each toe's ``x, z`` is modelled less its ankle's
+            and each knee less the midpoint of its hip and ankle, in the same frame
+            (:mod:`motionlab.models.anchor`): the legs keep their length. Not in the paper.
     """
 
     n_features: int = 66
@@ -127,6 +132,7 @@ class MoGlowConfig:
     constant_features: tuple[int, ...] = (0, 2)
     foot_anchor: bool = False
     anchor_conditioning: bool = False
+    leg_anchor: bool = False
 
     def __post_init__(self):
         checks.config(self, probability_fields=("dropout",))
@@ -144,6 +150,7 @@ class MoGlowConfig:
         bad = [i for i in self.constant_features if not 0 <= i < n_pose]
         if bad:
             raise ValueError(f"constant_features: {bad} are not pose features (0 .. {n_pose - 1})")
+        anchor.check_leg_config(self)
         anchor.check_config(self)
         if self.anchor_conditioning and not self.foot_anchor:
             raise ValueError("anchor_conditioning: the networks see the feet's anchor m; needs foot_anchor=True")
@@ -438,7 +445,9 @@ class MoGlow(FootAnchor, MotionFlow):
             (["feet's x, z modelled less where they would be had they stayed planted (foot_anchor)"]
              if c.foot_anchor else []) + \
             ([f"the conditioning also holds m, where the feet would be had they stayed planted "
-              f"({len(anchor.FOOT_XZ)} values, anchor_conditioning)"] if c.anchor_conditioning else [])
+              f"({len(anchor.FOOT_XZ)} values, anchor_conditioning)"] if c.anchor_conditioning else []) + \
+            (["toes modelled less their ankles, knees less the midpoint of hip and ankle (leg_anchor)"]
+             if c.leg_anchor else [])
 
 
 CARD = ModelCard("moglow", MoGlow, MoGlowConfig, schedule=henter_schedule(80_000, "autoregressive"))
