@@ -385,13 +385,14 @@ class MoGlow(FootAnchor, MotionFlow):
         tau = self.config.history
         poses = history[..., self.modelled]
         controls = torch.cat([history[..., self.control], control], dim=1)
+        units = self.anchor_units() if self.config.foot_anchor else None       # once, not every frame
         with eval_mode(self), self.carrying_state():
             for t in range(frames):
                 cond = self.frame_conditioning(self.history_scale * poses[:, -tau:], controls[:, t:t + tau + 1],
-                                               poses[:, -1])
+                                               poses[:, -1], units)
                 x = self.flow.inverse(temperature * noise[:, t:t + 1], cond)
                 if self.config.foot_anchor:
-                    x = self._anchored(x, poses[:, -1:], controls[:, t + tau - 1:t + tau], 1.0)
+                    x = self._anchored(x, poses[:, -1:], controls[:, t + tau - 1:t + tau], 1.0, units)
                 poses = torch.cat([poses, x], dim=1)
         return self.join_features(poses[:, tau:], control)
 
