@@ -123,8 +123,8 @@ RECIPES = {recipe.name: recipe for recipe in (
            "the same, widened to the LSTM model's number of weights"),
     Recipe("moglow_foot_anchor", "moglow_foot_anchor.pt", "moglow",
            (*MOGLOW, "--set", "foot_anchor=true", "anchor_conditioning=true", "leg_anchor=true"),
-           "each foot modelled relative to where it would be had it stayed planted, toes and knees relative to "
-           "the leg (notebooks 06, 08)"),
+           "each ankle modelled relative to where it would be had it stayed planted, toes and knees relative "
+           "to the leg (notebooks 06, 08)"),
     Recipe("glow", "glow.pt", "glow",
            ("--synthetic-clips", "200", "--stride", "1.0", "--epochs", "20", "--lr", "2e-3", "--batch-size", "32",
             "--half"),

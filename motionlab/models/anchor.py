@@ -40,9 +40,9 @@ from ..skeleton import FEET, LOCOMOTION
 FOOT_XZ = tuple(3 * j + axis for axis in (0, 2) for j in FEET)
 """The root-local ``x`` then ``z`` features of the ankles and toes (:data:`FEET` order)."""
 
-ANKLE_SLOTS = tuple(k for k, j in enumerate(FEET * 2) if j in (leg[2] for leg in LEGS))
-"""Where the ankles' ``x, z`` are in :data:`FOOT_XZ` (the toes' are not shifted by ``m``
-with ``leg_anchor``)."""
+ANKLE_SLOTS = tuple(k for k, feature in enumerate(FOOT_XZ) if feature // 3 in {leg[2] for leg in LEGS})
+"""Where the ankles' ``x, z`` are in :data:`FOOT_XZ` and in ``m`` (with ``leg_anchor`` only
+they take ``m``; the toes are placed from their ankles)."""
 
 LEG_SOURCES = tuple(3 * j + axis for hip, _, ankle, _ in LEGS for j in (hip, ankle) for axis in range(3))
 """``leg_anchor``'s inputs: each leg's hip ``x, y, z`` then ankle ``x, y, z`` (left leg first)."""
@@ -97,7 +97,9 @@ class FootAnchor:
             self.register_buffer("foot_columns", torch.tensor([modelled.index(i) for i in FOOT_XZ]),
                                  persistent=False)
         if config.leg_anchor:
-            for name, features in (("leg_sources", LEG_SOURCES), ("leg_targets", LEG_TARGETS)):
+            ankles = [FOOT_XZ[k] for k in ANKLE_SLOTS]
+            columns = (("ankle_columns", ankles), ("leg_sources", LEG_SOURCES), ("leg_targets", LEG_TARGETS))
+            for name, features in columns:
                 self.register_buffer(name, torch.tensor([modelled.index(i) for i in features]), persistent=False)
 
     def anchor_units(self) -> tuple[torch.Tensor, ...]:
@@ -157,8 +159,7 @@ class FootAnchor:
         if not self.config.leg_anchor:
             out[..., self.foot_columns] += sign * m
             return out
-        slots = list(ANKLE_SLOTS)
-        out[..., self.foot_columns[slots]] += sign * m[..., slots]
+        out[..., self.ankle_columns] += sign * m[..., ANKLE_SLOTS]
         placed = poses if sign < 0 else out                              # hips and ankles, as in the pose
         weight, bias = units[4:]
         shift = placed[..., self.leg_sources].float() @ weight + bias
