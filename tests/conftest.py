@@ -1,6 +1,7 @@
 """Shared fixtures: where the real CMU data is, and a small procedural walker for unit tests."""
 from __future__ import annotations
 
+import importlib.util
 import os
 from pathlib import Path
 
@@ -54,6 +55,19 @@ def walker(frames: int = 80, fps: float = 20.0, speed: float = 1.2, turn_rate: f
     world_step = np.einsum("fab,fb->fa", y_rotation(heading[:-1]), step[:-1])  # t -> t+1
     root = np.concatenate([np.zeros((1, 3)), np.cumsum(world_step, axis=0)])
     return np.einsum("fab,fjb->fja", y_rotation(heading), local) + root[:, None]
+
+
+@pytest.fixture(scope="session")
+def benchmark_script():
+    """``benchmark_script(name)``: ``benchmarks/<name>.py`` loaded as a module (its ``main``
+    and helpers, without running it as a script)."""
+    def load(name: str):
+        path = Path(__file__).resolve().parents[1] / "benchmarks" / f"{name}.py"
+        spec = importlib.util.spec_from_file_location(name, path)
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+        return module
+    return load
 
 
 @pytest.fixture

@@ -1,6 +1,5 @@
 """benchmarks/feet.py's options: more bodies per path, and a checkpoint of one's own in the
 place of a shipped model."""
-import importlib.util
 from pathlib import Path
 
 import pytest
@@ -9,11 +8,8 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 @pytest.fixture(scope="module")
-def feet():
-    spec = importlib.util.spec_from_file_location("feet", ROOT / "benchmarks" / "feet.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+def feet(benchmark_script):
+    return benchmark_script("feet")
 
 
 @pytest.mark.parametrize("argv, says", [

@@ -523,19 +523,20 @@ class DFN(StagedTraining, GenerativeModel, nn.Module):
                 ``frames - k`` generated ones.
             temperature: scales the standard deviation of both priors (1 = the model;
                 0 = the mean path, deterministic).
-            generator: a ``torch.Generator`` for reproducible samples.
-            latents: also return the states of the generated frames.
+            generator: a ``torch.Generator`` for reproducible samples; latents: also return the states.
 
-        Returns ``(batch, frames, 66)`` normalised features; with ``latents=True`` a dict
-        with ``"frames"`` and ``"z"``, ``"f"``, ``"x"`` ``(batch, frames - k, size)`` (the
-        current and future states and the standardised current feature of each generated
-        frame).
+        Returns ``(batch, frames, 66)`` normalised features; with ``latents=True`` a dict with ``"frames"``
+        and ``"z"``, ``"f"``, ``"x"`` ``(batch, frames - k, size)`` (the current and future states and the
+        standardised current feature of each generated frame).
 
-        The prefix drives the past state: *Choice* (the paper does not say how it primes
-        the model): for each prefix frame ``f_t`` and ``z_t`` are the means of the posteriors
-        ``q(f_t | h_t, s_t)`` and ``q(z_t | x_t, h_t, s_t)`` (§5.4), ``s_t`` summarising the
-        prefix from frame ``t`` on, its last frame held where the horizon reaches past it. Then, for
-        every new frame (§3, Fig. 5a): ``f_t ~ p(f | h_t)``, ``s^_t = MLP(f_t)``,
+        The prefix drives the past state (*Choice*; the paper does not say how): read by the
+        inference networks of §5.4 as training windows are, ``f_t``, ``z_t`` the means of
+        ``q(f_t | h_t, s_t)``, ``q(z_t | x_t, h_t, s_t)`` while ``s_t`` lies within the prefix;
+        for its last ``H - 1`` frames ``f_t`` is the prior's mean and ``s^_t = MLP(f_t)`` stands
+        in for ``s_t``. (Holding the prefix's last frame as their future told the model the
+        motion stops: from a steady walk or run its samples stepped 0.4-0.5 times as fast as
+        the data in the first second, now 0.96-0.99, ``benchmarks/dfn_steps.py``.) Then, per
+        new frame (§3, Fig. 5a): ``f_t ~ p(f | h_t)``, ``s^_t = MLP(f_t)``,
         ``z_t ~ p(z | h_t, s^_t)``, ``x^_t = MLP(z_t)``, ``h_{t+1} = GRU(h_t, [z_t, f_t])``.
         """
         self._check(prefix, "prefix")
@@ -550,20 +551,19 @@ class DFN(StagedTraining, GenerativeModel, nn.Module):
     def _sample(self, prefix, frames, temperature, generator, latents):
         """:meth:`sample`'s work, with the model in evaluation mode."""
         d, c, k = self.dynamics, self.config, prefix.shape[1]
-        given_on = prefix.device
-        prefix = prefix.to(self.code_mean.device)                    # the model's device
+        given_on, prefix = prefix.device, prefix.to(self.code_mean.device)      # to the model's device
         state = d.initial_state(prefix.shape[0], c.past, prefix.device)
-        # Priming the past state: the inference networks of §5.4 read the prefix as they read
-        # training windows, f and z from their posteriors' means given each frame's future
-        # summary. *Choice*: where the horizon reaches past the prefix, its last frame is
-        # held. (With the prior's f instead, which knows nothing of where the prefix is
-        # heading, a running prefix was followed by standing and a standing one by running.)
+        # Priming (see sample): posteriors while s_t lies in the prefix, then the prior's f.
         codes = self.codes(prefix)
-        held = torch.cat([codes, codes[:, -1:].expand(-1, c.horizon - 1, -1)], 1)
-        summaries = self.summaries(held)                              # (n, k, summary)
-        for x, s in zip(codes.unbind(1), summaries.unbind(1)):
+        summaries = self.summaries(codes) if k >= c.horizon else codes[:, :0]    # (n, k - H + 1, summary)
+        for t, x in enumerate(codes.unbind(1)):
             h = state[-1]
-            f = d.future_posterior(h, s)[0]                                              # eq. 11
+            if t < summaries.shape[1]:
+                s = summaries[:, t]
+                f = d.future_posterior(h, s)[0]                                          # eq. 11
+            else:
+                f = d.future_prior(h)[0]                                                 # eq. 5
+                s = d.summary_decoder(f)                                                 # eq. 6
             z = d.current_posterior(x, h, s)[0]                                          # eq. 10
             state = d.step_past(state, z, f)
         zs, fs = [], []

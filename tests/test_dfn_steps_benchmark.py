@@ -1,0 +1,36 @@
+"""benchmarks/dfn_steps.py: where the shipped DFN's steps fade, stage by stage."""
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope="module")
+def dfn_steps(benchmark_script):
+    return benchmark_script("dfn_steps")
+
+
+@pytest.mark.parametrize("argv, says", [
+    (["--bodies", "0"], "--bodies: expected 1 to 64"),
+    (["--checkpoint", str(ROOT / "motionlab" / "checkpoints" / "glow.pt")], "holds a Glow, not a DFN"),
+    (["--checkpoint", str(ROOT / "no_such.pt")], "--checkpoint:"),
+])
+def test_bad_arguments_are_refused_by_name(dfn_steps, capsys, argv, says):
+    with pytest.raises(SystemExit):
+        dfn_steps.main(argv)
+    assert says in capsys.readouterr().err
+
+
+def test_the_reconstructions_step_like_the_data_and_every_row_has_every_second(dfn_steps, capsys):
+    ratios = dfn_steps.main(["--bodies", "2"])
+    out = capsys.readouterr().out
+    assert set(ratios) == {"walk", "run"}
+    for rows in ratios.values():
+        assert set(rows) == {"frame autoencoder", "posterior", "prior, τ = 1", "prior, τ = 0.5", "prior, τ = 0"}
+        # the decoder and the posterior's states keep the data's steps: what fades is the prior's
+        assert 0.9 < rows["frame autoencoder"] < 1.1 and 0.9 < rows["posterior"] < 1.1
+        assert all(0 < r < 2 for r in rows.values())
+    table = [line for line in out.splitlines() if line.startswith("| prior") or line.startswith("| posterior")]
+    assert len(table) == 8 and all(line.count("|") == 13 for line in table)   # 10 seconds and the speed
+    assert out.count("Foot skating, / the data's") == 2
