@@ -39,7 +39,8 @@ def test_config_checks_and_paper_sizes():
     assert (paper.current_posterior_hidden, paper.future_posterior_hidden, paper.td_hidden) == (32, 512, 32)
     assert paper.pose_code == 16 and paper.code == paper.pose_code + paper.velocity_code
     assert DFNConfig.paper(horizon=5).horizon == 5
-    for bad in ({"horizon": 0}, {"observation_std": 0.0}, {"td_weight": -1.0}, {"fps": 0.0}):
+    for bad in ({"horizon": 0}, {"observation_std": 0.0}, {"td_weight": -1.0}, {"fps": 0.0},
+                {"prior_feed": 1.0}, {"prior_feed": -0.1}, {"prior_feed": math.nan}):
         with pytest.raises(ValueError, match=next(iter(bad))):
             DFNConfig(**bad)
 
@@ -194,6 +195,31 @@ def test_trained_generation_is_stable_and_diversifies(prepared):
     assert speed[:, -100:].mean() > 0.3 * data_speed                                     # no freezing
     spread = metrics.mean_distance_over_time(pose)[0]
     assert spread[-100:].mean() > 2 * spread[10:20].mean()                               # diversifies
+
+
+def test_prior_feed_gives_the_past_state_the_priors_samples_in_training_only(prepared):
+    """``prior_feed``: in training (and only there) the past GRU sometimes reads the priors'
+    samples; the losses' posteriors, priors and targets are computed as before."""
+    batch = prepared.train.windows[:6]
+    torch.manual_seed(0)
+    paper = staged(DFN(SMALL), prepared.train.windows)
+    fed = staged(DFN(replace(SMALL, prior_feed=0.5)), prepared.train.windows)
+    fed.load_state_dict(paper.state_dict())
+    runs = {}
+    for name, model in (("paper", paper), ("fed", fed)):
+        for mode in ("eval", "train"):
+            getattr(model, mode)()
+            with torch.no_grad():
+                runs[name, mode] = model.infer(batch, generator=torch.Generator().manual_seed(3))
+    assert DFNConfig().prior_feed == 0.0 and DFNConfig.paper().prior_feed == 0.0          # the paper's
+    for key in ("h", "qz_mu", "pf_mu", "x_hat"):
+        assert torch.equal(runs["paper", "eval"][key], runs["fed", "eval"][key])      # evaluation: no feeding
+        assert torch.equal(runs["paper", "eval"][key], runs["paper", "train"][key])   # 0: as the paper
+    h_paper, h_fed = runs["paper", "train"]["h"], runs["fed", "train"]["h"]
+    assert torch.equal(h_paper[:, 0], h_fed[:, 0])                      # h_0 is read before any feeding
+    fed_first = (h_paper[:, 1] - h_fed[:, 1]).abs().amax(-1) > 1e-6    # h_1: which windows were fed at t = 0
+    assert fed_first.any() and not fed_first.all()                      # per window, by chance
+    assert torch.equal(runs["paper", "train"]["x"], runs["fed", "train"]["x"])        # the same targets
 
 
 @pytest.mark.parametrize("call, match", [

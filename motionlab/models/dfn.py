@@ -90,6 +90,10 @@ class DFNConfig:
         contact_weight: weight of the foot-contact velocity term (HuMoR, EDGE, MDM) in the
             two stages whose loss is on decoded frames (eqs. 2 and 3; see :meth:`DFN.frame_loss`),
             per (m/s)² of planted-foot velocity; 0 = off (the shipped model).
+        prior_feed: *not in the paper*: in training, the chance per step and window that the
+            past-state GRU (eq. 8) reads a sample of the priors (eqs. 5-7) instead of the
+            posteriors' (scheduled sampling, Bengio et al. 2015, on the latent states), so
+            that ``h`` learns from the states generation gives it; 0 = the paper (shipped).
     """
 
     n_pose: int = 63
@@ -115,28 +119,17 @@ class DFNConfig:
     velocity_weight: float = 1.0
     pose_decoder: str = "rotations"
     contact_weight: float = 0.0
+    prior_feed: float = 0.0
 
     def __post_init__(self):
         checks.config(self, positive_fields=("observation_std",),
-                      non_negative_fields=("td_weight", "velocity_weight", "contact_weight"))
-        for name in ("n_pose", "n_control", "frame_hidden", "pose_code", "velocity_code", "horizon",
-                     "summary", "past", "future", "current", "future_prior_hidden",
-                     "current_prior_hidden", "summary_decoder_hidden", "current_posterior_hidden",
-                     "future_posterior_hidden", "td_hidden", "td_max_skip"):
-            if getattr(self, name) < 1:
-                raise ValueError(f"{name}: must be >= 1, got {getattr(self, name)}")
-        if self.fps <= 0:
-            raise ValueError(f"fps: must be > 0, got {self.fps}")
-        if self.observation_std <= 0:
-            raise ValueError(f"observation_std: must be > 0, got {self.observation_std}")
+                      non_negative_fields=("td_weight", "velocity_weight", "contact_weight"),
+                      probability_fields=("prior_feed",))
         if self.pose_decoder not in POSE_DECODERS:
             raise ValueError(f"pose_decoder: expected one of {', '.join(POSE_DECODERS)}, got {self.pose_decoder!r}")
         if self.pose_decoder == "rotations" and self.n_pose != 3 * LOCOMOTION.n_joints:
             raise ValueError(f"pose_decoder: 'rotations' decodes the {LOCOMOTION.n_joints}-joint locomotion "
                              f"skeleton ({3 * LOCOMOTION.n_joints} pose values), got n_pose={self.n_pose}")
-        if self.td_weight < 0 or self.velocity_weight < 0:
-            raise ValueError(f"td_weight and velocity_weight: must be >= 0, got {self.td_weight} "
-                             f"and {self.velocity_weight}")
 
     @property
     def n_features(self) -> int:
@@ -446,6 +439,12 @@ class DFN(StagedTraining, GenerativeModel, nn.Module):
             z = gaussian.sample(*qz, generator=generator)
             for key, value in zip(names, (h, *qf, f, *qz, z)):
                 out[key].append(value)
+            if self.training and c.prior_feed > 0:                           # see DFNConfig.prior_feed
+                with torch.no_grad():
+                    pf = gaussian.sample(*d.future_prior(h), generator=generator)                      # eq. 5
+                    pz = gaussian.sample(*d.current_prior(h, d.summary_decoder(pf)), generator=generator)  # eqs. 6-7
+                feed = torch.rand(h.shape[0], 1, generator=generator, device=h.device) < c.prior_feed
+                f, z = torch.where(feed, pf, f), torch.where(feed, pz, z)
             state = d.step_past(state, z, f)                                 # eq. 8
         result = {k: torch.stack(v, 1) for k, v in out.items()}
         result["pf_mu"], result["pf_log_var"] = d.future_prior(result["h"])           # eq. 5
