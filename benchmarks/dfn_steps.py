@@ -19,6 +19,12 @@ multiple of the data's, for:
 Then the samples' feet (``metrics.foot_skating``, the data's planted heights) raw and
 finished (``contacts.finish``), as a multiple of the data's, beside ``benchmarks/feet.py``'s
 DFN rows, which continue a standing prefix instead.
+
+A body kept on the walk or run path for 10 s is not what DFN learned from: its training clips
+change activity every 1.5-4 s, so from a run the data itself slows down. The last table of
+each path is that reference (``experiments.own_futures``): held-out random clips cut where
+they walk (1-1.7 m/s) or run (2.8-4.5 m/s) through a prefix, what each clip did next, and
+DFN's samples from the same cuts (``--bodies`` x 5 clips of 40 s).
 """
 from __future__ import annotations
 
@@ -37,6 +43,8 @@ FPS = 20.0
 START_S, PREFIX, SECONDS = 2.5, 10, 10
 TEMPERATURES = (1.0, 0.5, 0.0)
 PATHS = ("walk", "run")
+OWN_SPEED = {"walk": (1.0, 1.7), "run": (2.8, 4.5)}
+"""Forward speed (m/s) through the prefix of the cuts of random clips that walk, that run."""
 
 
 def bodies_in_motion(path: str, n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -69,7 +77,8 @@ def ratio_cells(stepping: np.ndarray, data: np.ndarray) -> str:
 
 def report(model: DFN, n: int) -> dict[str, dict[str, float]]:
     """Print the tables; returns, per path, each row's stepping ratio over the 10 s
-    (``"mean"``) and the samples' in the first second (``"first second"``), tested."""
+    (``"mean"``), the samples' in the first second (``"first second"``), and the data's own
+    future beside DFN's (``"own future"``, :func:`own_future`), tested."""
     out = {}
     for path in PATHS:
         prefix, truth = bodies_in_motion(path, n)
@@ -101,8 +110,29 @@ def report(model: DFN, n: int) -> dict[str, dict[str, float]]:
         print(f"\nFoot skating, / the data's {100 * data_skating:.1f} cm/s: "
               + "; ".join(f"τ = {t:g}: raw {raw / data_skating:.2f} → finished {done / data_skating:.2f}"
                           for t, raw, done in feet))
-        out[path] = {"mean": rows, "first second": first}
+        out[path] = {"mean": rows, "first second": first, "own future": own_future(model, path, n)}
     return out
+
+
+def own_future(model: DFN, path: str, n: int) -> dict[str, np.ndarray]:
+    """The data's own future beside DFN's (:func:`experiments.own_futures`): printed as a
+    table; returns the data's stepping second by second (m/s) and DFN's as a multiple of it."""
+    prefixes, futures = experiments.own_futures(OWN_SPEED[path], PREFIX, SECONDS, FPS, clips=max(4, 5 * n))
+    entry = comparison.Entry("dfn", "DFN", "Chen 2020", control=False, prefix=True, temperature=1.0)
+    sample = comparison.respond(entry, model, futures[0, :, N_POSE:], prefixes, n=len(prefixes))
+    data_steps = metrics.stepping_by_second(futures, FPS).mean(0)
+    steps = metrics.stepping_by_second(sample, FPS).mean(0)
+    last5 = slice(-int(5 * FPS), None)
+    low, high = OWN_SPEED[path]
+    print(f"\nThe data's own future: {len(prefixes)} cuts of held-out random clips moving at {low:g}-{high:g} m/s "
+          "through the prefix, and what each clip did next (its activity changes every 1.5-4 s); DFN from the same "
+          "cuts, τ = 1:\n")
+    print("| frames | " + " | ".join(f"{s + 1} s" for s in range(len(data_steps))) + " | forward speed, last 5 s (m/s) |")
+    print("|---|" + "---|" * (len(data_steps) + 1))
+    print("| the clips' own future, stepping (m/s) | " + " | ".join(f"{v:.2f}" for v in data_steps)
+          + f" | {futures[:, last5, N_POSE].mean():.2f} |")
+    print(f"| DFN, / the clips' | {ratio_cells(steps, data_steps)} | {sample[:, last5, N_POSE].mean():.2f} |")
+    return {"data": data_steps, "prior, τ = 1": steps / data_steps}
 
 
 def main(argv=None) -> dict:

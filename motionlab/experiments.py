@@ -139,6 +139,42 @@ def walks(control: np.ndarray, fps: float, n: int = 4, lead_frames: int = 0) -> 
                      for _ in range(n)])
 
 
+def own_futures(speed_ms: tuple[float, float], prefix_frames: int, seconds: float, fps: float, clips: int = 40,
+                clip_s: float = 40.0, spacing_s: float = 5.0) -> tuple[np.ndarray, np.ndarray]:
+    """Held-out random built-in clips (:func:`motionlab.synthetic.random_motion`, seeds from
+    :data:`HELD_OUT_SEED`, ``clips`` of ``clip_s`` seconds), cut where the body moved forward
+    at ``speed_ms`` ``(low, high)`` m/s through ``prefix_frames`` frames, and what each clip
+    did next: ``(prefixes (m, prefix_frames, 66), futures (m, seconds * fps + 1, 66))``, data
+    units, cuts at least ``spacing_s`` apart within a clip.
+
+    The futures are the reference a model of these clips continues towards: their activity
+    changes every 1.5-4 s (:func:`motionlab.synthetic.random_control`), so from a run the
+    data's own future slows down, where a body kept on the run path does not."""
+    low, high = speed_ms
+    if not (np.isfinite(low) and np.isfinite(high) and low < high):
+        raise ValueError(f"speed_ms: expected (low, high) m/s with low < high, got {speed_ms!r}")
+    if not 1 <= prefix_frames or seconds <= 0 or clips < 1 or clip_s <= seconds or spacing_s <= 0:
+        raise ValueError(f"prefix_frames, seconds, clips, clip_s, spacing_s: expected >= 1, > 0, >= 1, > seconds, > 0; "
+                         f"got {prefix_frames}, {seconds}, {clips}, {clip_s}, {spacing_s}")
+    ahead = int(round(seconds * fps)) + 1
+    prefixes, futures = [], []
+    for i in range(clips):
+        features = to_features(synthetic.random_motion(clip_s, fps, HELD_OUT_SEED + i).positions, fps)
+        forward = features[:, POSE.stop]
+        t = prefix_frames
+        while t + ahead <= len(features):
+            window = forward[t - prefix_frames:t]
+            if low <= window.min() and window.max() <= high:
+                prefixes.append(features[t - prefix_frames:t])
+                futures.append(features[t:t + ahead])
+                t += int(round(spacing_s * fps))
+            else:
+                t += 1
+    if not prefixes:
+        raise ValueError(f"speed_ms: no {prefix_frames}-frame stretch of {clips} clips moves at {low:g}-{high:g} m/s")
+    return np.stack(prefixes), np.stack(futures)
+
+
 def data_stepping(name: str, seconds: float, fps: float, n: int = 4) -> tuple[np.ndarray, float]:
     """The data on the preset path ``name``: ``n`` built-in bodies (held-out seeds) follow it
     for ``seconds``. Returns their stepping speed second by second (m/s, ``(seconds,)``,

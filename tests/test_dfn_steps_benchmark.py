@@ -36,6 +36,15 @@ def test_the_reconstructions_step_like_the_data_and_every_row_has_every_second(d
         # primed by the prefix's motion, not told it stops: the first second keeps the data's
         # steps (0.96-0.99 on 8 bodies; 0.4-0.5 when the prefix's last frame was held)
         assert 0.8 < first["prior, τ = 1"] < 1.2
+        # the clips' own future from the same kind of prefix, and DFN beside it
+        own = path["own future"]
+        assert own["data"].shape == own["prior, τ = 1"].shape == (10,)
+        assert 0.5 < own["prior, τ = 1"].mean() < 1.3
+    # from a run, the data's own clips slow down (their activity changes every 1.5-4 s)
+    running = ratios["run"]["own future"]["data"]
+    assert running[0] > 1.25 * running[5:].mean()
     table = [line for line in out.splitlines() if line.startswith("| prior") or line.startswith("| posterior")]
     assert len(table) == 8 and all(line.count("|") == 13 for line in table)   # 10 seconds and the speed
+    own = [line for line in out.splitlines() if line.startswith("| the clips'") or line.startswith("| DFN, /")]
+    assert len(own) == 4 and all(line.count("|") == 13 for line in own)
     assert out.count("Foot skating, / the data's") == 2

@@ -81,3 +81,19 @@ def test_temperature_sweep_judges_the_shipped_glow_at_each_temperature():
     assert cold["leg swing (m), data"] == hot["leg swing (m), data"]                 # one yardstick
     assert cold["leg swing (m), samples"] > 0.8 * cold["leg swing (m), data"]        # the shipped model steps
     assert hot["foot skating (m/s), samples"] > cold["foot skating (m/s), samples"]  # noise costs the feet
+
+
+def test_own_futures_cut_held_out_clips_where_they_move_at_the_speed_and_keep_what_came_next():
+    prefixes, futures = experiments.own_futures((2.8, 4.5), 10, 4.0, 20.0, clips=6, clip_s=20.0)
+    assert prefixes.shape[1:] == (10, 66) and futures.shape[1:] == (81, 66) and len(prefixes) == len(futures) >= 3
+    forward = prefixes[..., CONTROL.start]
+    assert (forward >= 2.8).all() and (forward <= 4.5).all()          # every cut runs through its prefix
+    # each future continues its prefix: the first frame's speed is the prefix's last, within a step's change
+    assert np.abs(futures[:, 0, CONTROL.start] - forward[:, -1]).max() < 0.2
+    # the clips' activity changes: running does not last 4 s in every cut
+    assert futures[:, -20:, CONTROL.start].mean() < 0.8 * forward.mean()
+    for bad, name in [((3.0, 2.0), "speed_ms"), ((np.nan, 2.0), "speed_ms"), ((9.0, 10.0), "speed_ms")]:
+        with pytest.raises(ValueError, match=name):
+            experiments.own_futures(bad, 10, 4.0, 20.0, clips=2, clip_s=10.0)
+    with pytest.raises(ValueError, match="clip_s"):
+        experiments.own_futures((1.0, 2.0), 10, 4.0, 20.0, clip_s=3.0)
