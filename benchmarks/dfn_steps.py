@@ -132,7 +132,14 @@ def own_future(model: DFN, path: str, n: int) -> dict[str, np.ndarray]:
     print("| the clips' own future, stepping (m/s) | " + " | ".join(f"{v:.2f}" for v in data_steps)
           + f" | {futures[:, last5, N_POSE].mean():.2f} |")
     print(f"| DFN, / the clips' | {ratio_cells(steps, data_steps)} | {sample[:, last5, N_POSE].mean():.2f} |")
-    return {"data": data_steps, "prior, τ = 1": steps / data_steps}
+    own_positions = to_positions(futures, FPS)
+    floor = contacts.planted_heights(own_positions)
+    own_skating = metrics.foot_skating(own_positions, FPS, rest_height_m=floor)
+    raw = metrics.foot_skating(to_positions(sample, FPS), FPS, rest_height_m=floor) / own_skating
+    done = metrics.foot_skating(contacts.finish(sample, FPS, planted_height_m=floor).positions, FPS,
+                                rest_height_m=floor) / own_skating
+    print(f"\nFoot skating, / the clips' own {100 * own_skating:.1f} cm/s: τ = 1: raw {raw:.2f} → finished {done:.2f}")
+    return {"data": data_steps, "prior, τ = 1": steps / data_steps, "skating": (raw, done)}
 
 
 def main(argv=None) -> dict:

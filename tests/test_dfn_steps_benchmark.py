@@ -40,6 +40,8 @@ def test_the_reconstructions_step_like_the_data_and_every_row_has_every_second(d
         own = path["own future"]
         assert own["data"].shape == own["prior, τ = 1"].shape == (10,)
         assert 0.5 < own["prior, τ = 1"].mean() < 1.3
+        raw, finished = own["skating"]
+        assert raw > finished > 0                                      # the lock takes sliding away
     # from a run, the data's own clips slow down (their activity changes every 1.5-4 s)
     running = ratios["run"]["own future"]["data"]
     assert running[0] > 1.25 * running[5:].mean()
@@ -47,4 +49,5 @@ def test_the_reconstructions_step_like_the_data_and_every_row_has_every_second(d
     assert len(table) == 8 and all(line.count("|") == 13 for line in table)   # 10 seconds and the speed
     own = [line for line in out.splitlines() if line.startswith("| the clips'") or line.startswith("| DFN, /")]
     assert len(own) == 4 and all(line.count("|") == 13 for line in own)
+    assert out.count("Foot skating, / the clips' own") == 2
     assert out.count("Foot skating, / the data's") == 2
