@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -43,6 +44,8 @@ FPS = 20.0
 START_S, PREFIX, SECONDS = 2.5, 10, 10
 TEMPERATURES = (1.0, 0.5, 0.0)
 PATHS = ("walk", "run")
+DFN_ENTRY = next(entry for entry in comparison.ENTRIES if entry.name == "dfn")
+"""Notebook 08's DFN (``comparison.respond``): it continues a prefix, with no control, at τ = 1."""
 OWN_SPEED = {"walk": (1.0, 1.7), "run": (2.8, 4.5)}
 """Forward speed (m/s) through the prefix of the cuts of random clips that walk, that run."""
 
@@ -98,8 +101,7 @@ def report(model: DFN, n: int) -> dict[str, dict[str, float]]:
             rows[name] = float((steps / data_steps[:len(steps)]).mean())
             print(f"| {name} | {ratio_cells(steps, data_steps)} | |")
         for t in TEMPERATURES:
-            entry = comparison.Entry("dfn", "DFN", "Chen 2020", control=False, prefix=True, temperature=t)
-            sample = comparison.respond(entry, model, truth[0, :, N_POSE:], prefix, n=n)
+            sample = comparison.respond(replace(DFN_ENTRY, temperature=t), model, truth[0, :, N_POSE:], prefix, n=n)
             steps = metrics.stepping_by_second(sample, FPS).mean(0)
             rows[f"prior, τ = {t:g}"] = float((steps / data_steps[:len(steps)]).mean())
             first[f"prior, τ = {t:g}"] = float(steps[0] / data_steps[0])
@@ -118,8 +120,7 @@ def own_future(model: DFN, path: str, n: int) -> dict[str, np.ndarray]:
     """The data's own future beside DFN's (:func:`experiments.own_futures`): printed as a
     table; returns the data's stepping second by second (m/s) and DFN's as a multiple of it."""
     prefixes, futures = experiments.own_futures(OWN_SPEED[path], PREFIX, SECONDS, FPS, clips=max(4, 5 * n))
-    entry = comparison.Entry("dfn", "DFN", "Chen 2020", control=False, prefix=True, temperature=1.0)
-    sample = comparison.respond(entry, model, futures[0, :, N_POSE:], prefixes, n=len(prefixes))
+    sample = comparison.respond(DFN_ENTRY, model, futures[0, :, N_POSE:], prefixes, n=len(prefixes))
     data_steps = metrics.stepping_by_second(futures, FPS).mean(0)
     steps = metrics.stepping_by_second(sample, FPS).mean(0)
     last5 = slice(-int(5 * FPS), None)
@@ -127,7 +128,8 @@ def own_future(model: DFN, path: str, n: int) -> dict[str, np.ndarray]:
     print(f"\nThe data's own future: {len(prefixes)} cuts of held-out random clips moving at {low:g}-{high:g} m/s "
           "through the prefix, and what each clip did next (its activity changes every 1.5-4 s); DFN from the same "
           "cuts, τ = 1:\n")
-    print("| frames | " + " | ".join(f"{s + 1} s" for s in range(len(data_steps))) + " | forward speed, last 5 s (m/s) |")
+    print("| frames | " + " | ".join(f"{s + 1} s" for s in range(len(data_steps)))
+          + " | forward speed, last 5 s (m/s) |")
     print("|---|" + "---|" * (len(data_steps) + 1))
     print("| the clips' own future, stepping (m/s) | " + " | ".join(f"{v:.2f}" for v in data_steps)
           + f" | {futures[:, last5, N_POSE].mean():.2f} |")
@@ -138,7 +140,8 @@ def own_future(model: DFN, path: str, n: int) -> dict[str, np.ndarray]:
     raw = metrics.foot_skating(to_positions(sample, FPS), FPS, rest_height_m=floor) / own_skating
     done = metrics.foot_skating(contacts.finish(sample, FPS, planted_height_m=floor).positions, FPS,
                                 rest_height_m=floor) / own_skating
-    print(f"\nFoot skating, / the clips' own {100 * own_skating:.1f} cm/s: τ = 1: raw {raw:.2f} → finished {done:.2f}")
+    print(f"\nFoot skating, / the clips' own {100 * own_skating:.1f} cm/s: "
+          f"τ = 1: raw {raw:.2f} → finished {done:.2f}")
     return {"data": data_steps, "prior, τ = 1": steps / data_steps, "skating": (raw, done)}
 
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import metrics, synthetic
+from . import checks, metrics, synthetic
 from .representation import POSE, to_features, to_positions
 
 
@@ -139,6 +139,10 @@ def walks(control: np.ndarray, fps: float, n: int = 4, lead_frames: int = 0) -> 
                      for _ in range(n)])
 
 
+MAX_CLIPS_S = 3 * 3600.0
+"""The most built-in motion :func:`own_futures` generates, seconds (about 100 MB of features at 20 fps)."""
+
+
 def own_futures(speed_ms: tuple[float, float], prefix_frames: int, seconds: float, fps: float, clips: int = 40,
                 clip_s: float = 40.0, spacing_s: float = 5.0) -> tuple[np.ndarray, np.ndarray]:
     """Held-out random built-in clips (:func:`motionlab.synthetic.random_motion`, seeds from
@@ -150,12 +154,15 @@ def own_futures(speed_ms: tuple[float, float], prefix_frames: int, seconds: floa
     The futures are the reference a model of these clips continues towards: their activity
     changes every 1.5-4 s (:func:`motionlab.synthetic.random_control`), so from a run the
     data's own future slows down, where a body kept on the run path does not."""
-    low, high = speed_ms
-    if not (np.isfinite(low) and np.isfinite(high) and low < high):
+    low, high = checks.array(speed_ms, "speed_ms", (2,))
+    if not low < high:
         raise ValueError(f"speed_ms: expected (low, high) m/s with low < high, got {speed_ms!r}")
-    if not 1 <= prefix_frames or seconds <= 0 or clips < 1 or clip_s <= seconds or spacing_s <= 0:
-        raise ValueError(f"prefix_frames, seconds, clips, clip_s, spacing_s: expected >= 1, > 0, >= 1, > seconds, > 0; "
-                         f"got {prefix_frames}, {seconds}, {clips}, {clip_s}, {spacing_s}")
+    prefix_frames, clips = checks.whole(prefix_frames, "prefix_frames"), checks.whole(clips, "clips")
+    fps, seconds = checks.rate(fps), checks.seconds(seconds, "seconds")
+    spacing_s = checks.seconds(spacing_s, "spacing_s")
+    if not seconds < checks.seconds(clip_s, "clip_s") or clips * clip_s > MAX_CLIPS_S:
+        raise ValueError(f"clip_s: expected longer than seconds ({seconds:g}) and clips x clip_s at most "
+                         f"{MAX_CLIPS_S:g} s, got {clip_s:g} s x {clips}")
     ahead = int(round(seconds * fps)) + 1
     prefixes, futures = [], []
     for i in range(clips):
