@@ -97,3 +97,18 @@ def test_own_futures_cut_held_out_clips_where_they_move_at_the_speed_and_keep_wh
             experiments.own_futures(bad, 10, 4.0, 20.0, clips=2, clip_s=10.0)
     with pytest.raises(ValueError, match="clip_s"):
         experiments.own_futures((1.0, 2.0), 10, 4.0, 20.0, clip_s=3.0)
+
+
+def test_the_bound_against_the_data_s_own_future_fails_on_a_frozen_pose_and_on_fading_steps():
+    """Notebook 07 and benchmarks/dfn_steps.py ask a continuation to step 0.5-1.3 times as fast
+    as the clips' own futures: a pose frozen at the prefix's last frame and steps that fade
+    out over a couple of seconds (both moving along the clips' own path) fall below it."""
+    _, futures = experiments.own_futures((2.8, 4.5), 10, 10.0, 20.0, clips=6, clip_s=20.0)
+    own = metrics.stepping_by_second(futures, 20.0).mean(0)
+    frozen = futures.copy()
+    frozen[..., POSE] = futures[:, :1, POSE]
+    fade = np.exp(-np.arange(futures.shape[1]) / 20.0 / 2.0)[None, :, None]      # 2-s time constant
+    fading = futures.copy()
+    fading[..., POSE] = futures[:, :1, POSE] + fade * (futures[..., POSE] - futures[:, :1, POSE])
+    for baseline in (frozen, fading):
+        assert (metrics.stepping_by_second(baseline, 20.0).mean(0) / own).mean() < 0.5
