@@ -505,7 +505,7 @@ def finish(features, fps: float, planted_height_m=None, bone_lengths=None, fit: 
     (:func:`body_lengths`); default each bone's median in the sample itself. The median is
     too long for a model whose bones keep growing as it goes (an anchored MoGlow's shins),
     but a sample's feet were placed by its own legs: on the data's, a lock holding them
-    needs legs of another length, and its planted feet move more (the README's feet section)."""
+    needs legs of another length, and its planted feet move more (docs/feet.md)."""
     features = checks.array(features, "features", (..., "frames", 3 * LOCOMOTION.n_joints + 3))
     fps = checks.rate(fps, "fps")
     positions = to_positions(features, fps)

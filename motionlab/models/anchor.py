@@ -16,7 +16,7 @@ The shift keeps maximum likelihood exact (its log-determinant is 0):
   triangular with ones on its diagonal: volume-preserving, and inverted frame by frame,
   ``x_t = y_t + m(x_{t-1}, c_{t-1})`` (:meth:`FootAnchor.anchor_window`).
 
-Anchored feet alone, the legs stretch to hold them (the README's feet section has the
+Anchored feet alone, the legs stretch to hold them (docs/feet.md has the
 measurements): a held foot stays put while the knee goes on with the body, and the shin
 lengthens through each stance. In a laptop-size anchored Glow the window sums the steps,
 every error in a step stays in the sum, and the shins grow over the window.

@@ -112,7 +112,7 @@ class MoGlowConfig:
         anchor_conditioning: with ``foot_anchor``, the coupling networks also see ``m``
             (where each foot would be had it stayed planted: where it is), never dropped:
             the history, dropped, rarely shows them where a foot is relative to the body.
-            Not in the paper; measured in the README.
+            Not in the paper; measured in docs/feet.md.
         leg_anchor: with ``foot_anchor``, each toe's ``x, z`` is modelled less its ankle's
             and each knee less the midpoint of its hip and ankle, in the same frame
             (:mod:`motionlab.models.anchor`): the legs keep their length. Not in the paper.

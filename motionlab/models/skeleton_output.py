@@ -14,7 +14,7 @@ law of cosines, the knee in the plane the decoder bent it in; an ankle out of re
 drawn in along the hip-ankle line) and the foot points at the decoder's toe, as
 :func:`motionlab.contacts.fit_bones` does. The decoder places the feet, which the contact
 term trains; walked down bone by bone, a leg would move its foot by every bone's correction
-above it, and the feet slid more (README).
+above it, and the feet slid more (docs/feet.md).
 
 Each sequence's lengths ``L`` are its own bones' mean length over its frames, as decoded: the
 body keeps the size the model gives it (the data's bodies differ in size, and one latent
