@@ -28,7 +28,8 @@ Three functions, one per step, on world positions ``(..., frames, 21, 3)`` in me
 real-time stream (``MoGlowStream``) can use. :func:`lock` is that class run over a clip.
 
 The labels come from :mod:`motionlab.contact_detection` (:func:`detect`, its thresholds,
-:func:`planted_heights`, :func:`planted_speed`); their names are importable from here too.
+:func:`planted_heights`, :func:`planted_speed`, :func:`horizontal_speed`); their names are
+importable from here too.
 """
 from __future__ import annotations
 
@@ -38,17 +39,17 @@ import numpy as np
 
 from . import checks
 from .contact_detection import (BODY_FRACTION, CLEAN_S, CONTACT_HEIGHT_M, CONTACT_SPEED_MS, RELEASE,
-                                _contact_array, _per_foot_joint, _positions, detect, planted_heights,
-                                planted_speed)
+                                SPEED_WINDOW_S, _contact_array, _per_foot_joint, _positions, detect,
+                                horizontal_speed, planted_heights, planted_speed)
 from .filters import smoothstep
 from .representation import along_path, to_positions
 from .skeleton import FEET, LOCOMOTION, Skeleton
 
 __all__ = ["APPROACH_HEIGHT", "APPROACH_S", "BLEND_S", "BODY_FRACTION", "CLEAN_S", "CONTACT_HEIGHT_M",
            "CONTACT_SPEED_MS", "FEET", "FOLLOW", "LEGS", "LOW_FADE", "PIVOT_BEND", "PLANTED_HEIGHT_M", "REACH_SLACK_M",
-           "RELEASE", "RELEASE_S", "FootLock", "Finished", "Locked", "approach_shift", "body_lengths", "contact_labels",
-           "contact_velocity_loss", "detect", "finish", "fit_bones", "foot_velocity", "lock", "lock_feet",
-           "planted_heights", "planted_speed", "two_bone_ik"]
+           "RELEASE", "RELEASE_S", "SPEED_WINDOW_S", "FootLock", "Finished", "Locked", "approach_shift", "body_lengths",
+           "contact_labels", "contact_velocity_loss", "detect", "finish", "fit_bones", "foot_velocity",
+           "horizontal_speed", "lock", "lock_feet", "planted_heights", "planted_speed", "two_bone_ik"]
 
 # ----------------------------------------------------------------------------------------
 # Thresholds of the lock (measured on the built-in data; see notebook 01, section 5)

@@ -312,7 +312,7 @@ def plot_contacts(positions: np.ndarray, fps: float, contacts, joint: int = 1, a
     ``thresholds`` ``(height m, speed m/s)`` are drawn as dotted lines; with
     ``body_fraction`` the speed threshold is drawn as ``contacts.detect`` applies it: the
     larger of the speed and that fraction of the hips' speed. Returns the axes."""
-    from .contacts import planted_heights
+    from .contacts import horizontal_speed, planted_heights
     from .skeleton import FEET
     positions = checks.array(positions, "positions", ("frames", LOCOMOTION.n_joints, 3))
     fps = checks.rate(fps, "fps")
@@ -327,7 +327,8 @@ def plot_contacts(positions: np.ndarray, fps: float, contacts, joint: int = 1, a
     floor = (planted_heights(positions) if planted_height_m is None else
              np.broadcast_to(planted_height_m, (len(FEET),)))[joint]
     t = np.arange(len(positions)) / fps
-    speed = np.linalg.norm(np.gradient(positions[:, j, [0, 2]], axis=0), axis=-1) * fps
+    moving = horizontal_speed(positions[:, [0, j]], fps)                # as contacts.detect measures it
+    speed = moving[:, 1]
     axes[0].plot(t, 100 * (positions[:, j, 1] - floor), label=label)
     axes[1].plot(t, speed, label=label)
     kind = ("ankle", "toe")[joint % 2]                                  # FEET: ankle, toe, ankle, toe
@@ -341,7 +342,7 @@ def plot_contacts(positions: np.ndarray, fps: float, contacts, joint: int = 1, a
         axes[0].axhline(100 * thresholds[0], color="k", ls=":", lw=1, label="height threshold")
         limit = np.full(len(t), float(thresholds[1]))
         if body_fraction is not None:
-            hips = np.linalg.norm(np.gradient(positions[:, 0, [0, 2]], axis=0), axis=-1) * fps
+            hips = moving[:, 0]
             limit = np.maximum(limit, checks.non_negative(body_fraction, "body_fraction") * hips)
         axes[1].plot(t, limit, color="k", ls=":", lw=1, label="speed threshold")
         axes[1].legend(fontsize=8, loc="upper right")
