@@ -106,6 +106,43 @@ def test_a_planted_foot_that_jitters_stays_in_contact_and_a_sliding_one_does_not
         assert not contacts.detect(slide, FPS, floor, speed_window_s=window)[:, 1].any()
 
 
+def test_labels_of_data_features_agree_with_the_detector(walking):
+    features = torch.tensor(np.stack([rep.to_features(p, FPS) for p in walking]))
+    labels = contacts.contact_labels(features, FPS, contacts.planted_heights(walking)).numpy().astype(bool)
+    detected = contacts.detect(walking, FPS, clean_s=0)
+    agree = (labels == (detected[:, 1:] & detected[:, :-1])).mean()
+    assert agree > 0.85, agree
+
+
+# ---------------------------------------------------------------------------------------
+# two-bone IK and bones
+# ---------------------------------------------------------------------------------------
+
+def test_two_bone_ik_reaches_keeps_lengths_and_bends_the_knee_its_way():
+    rng = np.random.default_rng(0)
+    hip = rng.normal(size=(50, 3))
+    knee = hip + np.array([0, -0.45, 0.05]) + 0.02 * rng.normal(size=(50, 3))
+    ankle = knee + np.array([0, -0.42, -0.03]) + 0.02 * rng.normal(size=(50, 3))
+    target = hip + 0.85 * (ankle - hip) + 0.02 * rng.normal(size=(50, 3))
+    new_knee, new_ankle, reached = contacts.two_bone_ik(hip, knee, ankle, target)
+    assert reached.all()
+    np.testing.assert_allclose(new_ankle, target, atol=1e-9)
+    np.testing.assert_allclose(np.linalg.norm(new_knee - hip, axis=-1), np.linalg.norm(knee - hip, axis=-1))
+    np.testing.assert_allclose(np.linalg.norm(new_ankle - new_knee, axis=-1), np.linalg.norm(ankle - knee, axis=-1))
+    # the knee stays on the side it pointed to, seen from the hip-target line
+    line = (target - hip) / np.linalg.norm(target - hip, axis=-1, keepdims=True)
+
+    def side(k):
+        v = k - hip
+        return v - (v * line).sum(-1, keepdims=True) * line
+    assert ((side(knee) * side(new_knee)).sum(-1) > 0).all()
+    far = hip + 5 * line
+    _, straight, reached = contacts.two_bone_ik(hip, knee, ankle, far)
+    assert not reached.any()
+    leg = np.linalg.norm(knee - hip, axis=-1) + np.linalg.norm(ankle - knee, axis=-1)
+    np.testing.assert_allclose(np.linalg.norm(straight - hip, axis=-1), leg, rtol=1e-5)
+
+
 def test_fit_bones_gives_every_bone_one_length_and_keeps_the_feet(walking):
     rng = np.random.default_rng(1)
     stretched = walking + 0.01 * rng.normal(size=walking.shape)
