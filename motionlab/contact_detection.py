@@ -143,10 +143,10 @@ def detect(positions, fps: float, planted_height_m=None, height_m=CONTACT_HEIGHT
     left ankle, left toe, right ankle, right toe) of ``positions`` ``(..., frames, 21, 3)``.
 
     A joint enters contact when it is less than ``height_m`` above its planted height and
-    moves horizontally slower than ``speed_ms`` (over ``speed_window_s`` seconds:
-    :func:`horizontal_speed`), and stays in it
-    until it is more than :data:`RELEASE` times either threshold above. The labels are then
-    cleaned by a majority filter over ``clean_s`` seconds (0: none).
+    moves horizontally slower than ``speed_ms`` (measured over ``speed_window_s`` seconds:
+    :func:`horizontal_speed`), and stays in it until it is more than :data:`RELEASE` times
+    either threshold above. The labels are then cleaned by a majority filter over
+    ``clean_s`` seconds (0: none).
 
     Args:
         planted_height_m: each joint's planted height (``(4,)`` or one value, metres);
