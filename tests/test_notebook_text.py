@@ -103,3 +103,57 @@ def test_readme_times_are_the_notebooks(tmp_path):
     with pytest.raises(ValueError, match="untimed.ipynb: code cell \\d+ has no execution timing"):
         readme_times.notebook_seconds(untimed)
     assert readme_times.spoken(59.4) == "59 s" and readme_times.spoken(125) == "2 min 5 s"
+
+
+def config_classes() -> dict:
+    """Every config dataclass of ``motionlab.models`` and ``motionlab.training``, by name."""
+    import dataclasses
+    import importlib
+    import pkgutil
+
+    import motionlab.models
+    modules = [importlib.import_module(f"motionlab.models.{m.name}") for m in pkgutil.iter_modules(motionlab.models.__path__)]
+    modules.append(importlib.import_module("motionlab.training"))
+    return {name: obj for module in modules for name, obj in vars(module).items()
+            if name.endswith("Config") and dataclasses.is_dataclass(obj)}
+
+
+def printed_configs(text: str) -> list[tuple[str, list[str]]]:
+    """``(class name, field names)`` of each config's repr in ``text``, e.g. ``GlowConfig(a=1, b=(0, 2))``."""
+    found = []
+    for match in re.finditer(r"\b(\w+Config)\(", text):
+        depth, names, start = 1, [], match.end()
+        for i in range(start, len(text)):
+            depth += {"(": 1, "[": 1, ")": -1, "]": -1}.get(text[i], 0)
+            if depth == 0:
+                break
+        body = text[start:i]
+        level, token = 0, ""
+        for char in body + ",":                 # the top-level "name=value" pairs only
+            level += {"(": 1, "[": 1, ")": -1, "]": -1}.get(char, 0)
+            if char == "," and level == 0:
+                names.append(token.split("=")[0].strip())
+                token = ""
+            else:
+                token += char
+        found.append((match.group(1), names))
+    return found
+
+
+@pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: p.stem)
+def test_printed_configs_have_todays_fields(path):
+    # a committed config printout names every field the config has now, and no other:
+    # a field added since the notebook last ran would otherwise be missing from what it shows
+    import dataclasses
+    classes = config_classes()
+    for index, output in outputs(path):
+        text = output.get("data", {}).get("text/plain", "") or output.get("text", "")
+        for name, fields in printed_configs("".join(text) if isinstance(text, list) else text):
+            if name in classes:
+                today = [f.name for f in dataclasses.fields(classes[name])]
+                assert fields == today, f"{path.name} cell {index}: {name} printed with {fields}, has {today} now"
+
+
+def test_the_printed_config_reader():
+    assert printed_configs("x GlowConfig(a=1, b=(0, 2), c='de', f=[1, 2]) y") == [("GlowConfig", ["a", "b", "c", "f"])]
+    assert {"GlowConfig", "MoGlowConfig", "DFNConfig", "TrainConfig"} <= set(config_classes())
