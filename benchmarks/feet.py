@@ -24,6 +24,11 @@ Section 2. The lock alone (no bone fitting) on the same samples: the bone drift 
 (target: at most 0.1 % more than the raw motion's) and whether anything above the hips
 moved; the contact thresholds; the causal lock's time per frame for one stream.
 
+Section 2b. The causal lock (``contacts.FootLock``, as the live character runs it: each frame
+locked with no later frame, contacts detected as it goes) beside the offline lock, on the
+bone-fitted samples at each notebook's temperature: skating against the data's and the
+feet's 99th-percentile acceleration.
+
 Section 3 (``--data``). notebook 08's table on the folder's 4-s windows: the shipped models
 (trained on built-in clips), raw and finished, beside the real data.
 
@@ -112,7 +117,7 @@ def section_1(models: dict, paths=PATHS, data_bones: bool = False, n: int = N) -
             print(line(f"{label}, {path}, τ = {t:g}", measures(features, data, floor)))
             print(line(f"{label}, {path}, τ = {t:g}, finished", measures(done.features, data, floor, features),
                        done.lock.out_of_reach))
-            kept[label, path, t] = (features, floor)
+            kept[label, path, t] = (features, floor, truth)
     return kept
 
 
@@ -121,7 +126,7 @@ def section_2(kept: dict) -> None:
     print("| model, path, temperature | bone drift raw (%) | locked (%) | added (%) | joints above the hips moved |")
     print("|---|---|---|---|---|")
     above = [j for j in range(21) if j not in {k for leg in contacts.LEGS for k in leg[1:]}]
-    for (label, path, t), (features, floor) in kept.items():
+    for (label, path, t), (features, floor, _) in kept.items():
         positions = to_positions(features, FPS)
         locked = contacts.lock_feet(positions, FPS, planted_height_m=floor)
         raw, new = (100 * metrics.bone_length_drift(p) for p in (positions, locked))
@@ -132,7 +137,7 @@ def section_2(kept: dict) -> None:
           f"{contacts.BODY_FRACTION:g} x the hips' speed; released above "
           f"{contacts.RELEASE:g} x either; blend in {contacts.BLEND_S:g} s, out {contacts.RELEASE_S:g} s; "
           f"a low foot slowed into its landing spot over the last {contacts.APPROACH_S:g} s (offline)")
-    features, floor = next(iter(kept.values()))
+    features, floor, _ = next(iter(kept.values()))
     frames = to_positions(features[:1], FPS)[0]
     lock = contacts.FootLock(FPS, planted_height_m=floor)
     times = []
@@ -144,6 +149,27 @@ def section_2(kept: dict) -> None:
         times.append((time.perf_counter() - began) / len(frames))
     print(f"the causal lock (contacts detected as it goes), one stream: {1000 * min(times):.3f} ms per frame "
           f"(best of 3 runs of {len(frames)} frames)")
+
+
+def section_2b(kept: dict, models: dict) -> None:
+    print("\n## 2b. The causal lock, as the live character uses it: bones fitted, then contacts detected and feet "
+          "locked frame by frame, with no later frame (`contacts.FootLock`), at each notebook's temperature\n")
+    print("| model, path, temperature | skating / data's: raw | finished (offline lock) | causal lock "
+          "| foot acc. p99 / max(data, raw): offline | causal |")
+    print("|---|---|---|---|---|---|")
+    for (label, path, t), (features, floor, truth) in kept.items():
+        if t != models[label][0].temperature:
+            continue
+        raw, data = to_positions(features, FPS), to_positions(truth[:, :features.shape[1]], FPS)
+        fitted = contacts.fit_bones(raw)
+        lock = contacts.FootLock(FPS, batch=len(fitted), planted_height_m=floor)
+        streamed = np.stack([lock.step(fitted[:, frame]) for frame in range(fitted.shape[1])], axis=1)
+        offline = contacts.lock_feet(fitted, FPS, planted_height_m=floor)
+        reference = metrics.foot_skating(data, FPS, rest_height_m=floor)
+        acc = max(metrics.foot_acceleration(data, FPS), metrics.foot_acceleration(raw, FPS))
+        skate = [metrics.foot_skating(p, FPS, rest_height_m=floor) / reference for p in (raw, offline, streamed)]
+        print(f"| {label}, {path}, τ = {t:g} | {skate[0]:.2f} | {skate[1]:.2f} | {skate[2]:.2f} "
+              f"| {metrics.foot_acceleration(offline, FPS) / acc:.2f} | {metrics.foot_acceleration(streamed, FPS) / acc:.2f} |")
 
 
 def section_3(models: dict, folder: str) -> None:
@@ -200,6 +226,7 @@ def main(argv: list[str] | None = None) -> None:
         models = own_models(parser, args.checkpoint)
     kept = section_1(models, args.paths, args.data_bones, args.samples)
     section_2(kept)
+    section_2b(kept, models)
     if args.data:
         section_3(models, args.data)
 

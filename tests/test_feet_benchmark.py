@@ -30,5 +30,9 @@ def test_a_checkpoint_of_ones_own_is_measured_alone_on_as_many_bodies_as_asked(f
     out = capsys.readouterr().out
     assert "2 samples; the data: 2 held-out bodies" in out
     rows = [line for line in out.splitlines() if line.startswith("| DFN, walk")]
-    assert len(rows) == 3                                  # raw, finished, and the lock alone (section 2)
+    assert len(rows) == 4                  # raw, finished, the lock alone (section 2), the causal lock (2b)
     assert "MoGlow" not in out and "VAE-LSTM" not in out   # only the model named
+    raw, finished, _, causal = ([cell.strip() for cell in row.strip("|").split("|")] for row in rows)
+    # section 2b's raw and offline columns are section 1's figures, measured again on the same samples
+    assert causal[1:3] == [raw[2], finished[2]]
+    assert float(causal[3]) > 0 and float(causal[5]) > 0
