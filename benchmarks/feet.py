@@ -166,10 +166,11 @@ def section_2b(kept: dict, models: dict) -> None:
         streamed = np.stack([lock.step(fitted[:, frame]) for frame in range(fitted.shape[1])], axis=1)
         offline = contacts.lock_feet(fitted, FPS, planted_height_m=floor)
         reference = metrics.foot_skating(data, FPS, rest_height_m=floor)
-        acc = max(metrics.foot_acceleration(data, FPS), metrics.foot_acceleration(raw, FPS))
+        larger = max(metrics.foot_acceleration(data, FPS), metrics.foot_acceleration(raw, FPS))
         skate = [metrics.foot_skating(p, FPS, rest_height_m=floor) / reference for p in (raw, offline, streamed)]
+        acceleration = [metrics.foot_acceleration(p, FPS) / larger for p in (offline, streamed)]
         print(f"| {label}, {path}, τ = {t:g} | {skate[0]:.2f} | {skate[1]:.2f} | {skate[2]:.2f} "
-              f"| {metrics.foot_acceleration(offline, FPS) / acc:.2f} | {metrics.foot_acceleration(streamed, FPS) / acc:.2f} |")
+              f"| {acceleration[0]:.2f} | {acceleration[1]:.2f} |")
 
 
 def section_3(models: dict, folder: str) -> None:

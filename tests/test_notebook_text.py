@@ -112,7 +112,8 @@ def config_classes() -> dict:
     import pkgutil
 
     import motionlab.models
-    modules = [importlib.import_module(f"motionlab.models.{m.name}") for m in pkgutil.iter_modules(motionlab.models.__path__)]
+    modules = [importlib.import_module(f"motionlab.models.{m.name}")
+               for m in pkgutil.iter_modules(motionlab.models.__path__)]
     modules.append(importlib.import_module("motionlab.training"))
     return {name: obj for module in modules for name, obj in vars(module).items()
             if name.endswith("Config") and dataclasses.is_dataclass(obj)}
