@@ -4,8 +4,11 @@ the README's run times taken from the notebooks."""
 from __future__ import annotations
 
 import base64
+import dataclasses
+import importlib
 import io
 import json
+import pkgutil
 import re
 import sys
 from pathlib import Path
@@ -107,10 +110,6 @@ def test_readme_times_are_the_notebooks(tmp_path):
 
 def config_classes() -> dict:
     """Every config dataclass of ``motionlab.models`` and ``motionlab.training``, by name."""
-    import dataclasses
-    import importlib
-    import pkgutil
-
     import motionlab.models
     modules = [importlib.import_module(f"motionlab.models.{m.name}")
                for m in pkgutil.iter_modules(motionlab.models.__path__)]
@@ -145,7 +144,6 @@ def printed_configs(text: str) -> list[tuple[str, list[str]]]:
 def test_printed_configs_have_todays_fields(path):
     # a committed config printout names every field the config has now, and no other:
     # a field added since the notebook last ran would otherwise be missing from what it shows
-    import dataclasses
     classes = config_classes()
     for index, output in outputs(path):
         text = output.get("data", {}).get("text/plain", "") or output.get("text", "")
