@@ -222,9 +222,8 @@ def main(argv: list[str] | None = None) -> None:
     args = parser.parse_args(argv)
     if not 1 <= args.samples <= 64:
         parser.error(f"--samples: expected 1 to 64, got {args.samples}")
-    models = comparison.load_models()
-    if args.checkpoint:
-        models = own_models(parser, args.checkpoint)
+    # the checkpoints named (checked before anything loads), or every shipped model
+    models = own_models(parser, args.checkpoint) if args.checkpoint else comparison.load_models()
     kept = section_1(models, args.paths, args.data_bones, args.samples)
     section_2(kept)
     section_2b(kept, models)

@@ -64,6 +64,7 @@ class Lab:
         if app not in ("lab", "notebook"):
             raise ValueError(f"app: expected 'lab' (JupyterLab) or 'notebook' (Notebook 7), got {app!r}")
         self.files, self.size, self.timeout, self.app = files, (width, height), timeout_s, app
+        self.showing: tuple[str, str] | None = None                    # (file, app) in the browser
 
     def __enter__(self) -> "Lab":
         try:
@@ -94,12 +95,25 @@ class Lab:
         os.environ.setdefault("SE_AVOID_STATS", "true")            # selenium: no network calls
         self.driver = webdriver.Chrome(options=options,
                                        service=webdriver.ChromeService(executable_path=shutil.which("chromedriver")))
-        first = next(iter(self.files))
-        where = "lab/tree" if self.app == "lab" else "notebooks"
-        self.driver.get(f"http://127.0.0.1:{self.port}/{where}/{first}?token={self.token}")
+        self.open(next(iter(self.files)), self.app)
+        return self
+
+    def open(self, name: str, app: str | None = None) -> None:
+        """Show the file ``name`` in ``app`` (``"lab"`` or ``"notebook"``; default: the server's
+        own) and wait for its kernel. One server serves both where Notebook 7 is installed,
+        so one server and one browser can test both apps, each on a file of its own. A file
+        already shown is left as it is."""
+        app = app or self.app
+        if app not in ("lab", "notebook") or name not in self.files:
+            raise ValueError(f"open: expected one of {list(self.files)} in 'lab' or 'notebook', "
+                             f"got {name!r} in {app!r}")
+        if self.showing == (name, app):
+            return
+        where = "lab/tree" if app == "lab" else "notebooks"
+        self.driver.get(f"http://127.0.0.1:{self.port}/{where}/{name}?token={self.token}")
         self.wait_for(lambda d: d.find_elements("css selector", ".jp-Notebook .jp-Cell"), "the notebook to open")
         self.wait_for(_kernel_idle, "the kernel to start")
-        return self
+        self.showing = (name, app)
 
     def _wait_for_server(self) -> None:
         import urllib.request

@@ -9,6 +9,7 @@ bodies are drawn as :mod:`motionlab.stickfigure` draws them.
 """
 from __future__ import annotations
 
+import contextlib
 import re
 import textwrap
 from typing import Sequence
@@ -211,7 +212,7 @@ def to_html(anim: animation.FuncAnimation, dpi: int = 72, frame_format: str = "j
     """
     anim._fig.set_dpi(dpi)
     with matplotlib.rc_context({"animation.embed_limit": 50.0, "savefig.dpi": dpi,
-                                "animation.frame_format": frame_format}):
+                                "animation.frame_format": frame_format}), _drawn_once(anim):
         html = anim.to_jshtml(default_mode="loop")
     # The player's <img> gets its picture from JavaScript once the page has run its script;
     # give it the first frame up front, so it shows before Play (and where scripts are off).
@@ -220,6 +221,22 @@ def to_html(anim: animation.FuncAnimation, dpi: int = 72, frame_format: str = "j
         src = first.group(1).replace("\\\n", "")              # the JS string's line continuations
         html = re.sub(r'<img id="(_anim_img\w+)">', lambda m: f'<img id="{m.group(1)}" src="{src}">', html, count=1)
     return _offline(html)
+
+
+@contextlib.contextmanager
+def _drawn_once(anim: animation.FuncAnimation):
+    """While an animation is saved, each frame is drawn once, by the writer that saves it.
+
+    After grabbing a frame, matplotlib asks the figure's canvas to draw itself again
+    (``draw_idle``, for a window on screen). Once :func:`stills` has given the figure an
+    off-screen canvas, that canvas does so at once: every frame was drawn twice, half of the
+    time :func:`show` spent. The saved frames are the same, byte for byte."""
+    canvas = anim._fig.canvas
+    canvas.draw_idle = lambda *args, **kwargs: None          # the instance's, over the class's
+    try:
+        yield
+    finally:
+        del canvas.draw_idle
 
 
 # The player's buttons, drawn with text instead of the Font Awesome web font matplotlib's
@@ -252,7 +269,8 @@ def show(anim: animation.FuncAnimation, dpi: int = 72, still_frames: int = 4) ->
 def save_gif(anim: animation.FuncAnimation, path: str, fps: float | None = None, dpi: int = 72) -> None:
     """Save an animation as a GIF with Pillow (ships with matplotlib); no ffmpeg needed."""
     interval_fps = 1000.0 / anim._interval if fps is None else checks.rate(fps, "fps")
-    anim.save(path, writer=animation.PillowWriter(fps=interval_fps), dpi=dpi)
+    with _drawn_once(anim):
+        anim.save(path, writer=animation.PillowWriter(fps=interval_fps), dpi=dpi)
 
 
 def save_frame(anim: animation.FuncAnimation, frame: int, path: str, dpi: int = 80) -> None:

@@ -37,35 +37,46 @@ def notebook7() -> bool:
     return importlib.util.find_spec("notebook") is not None
 
 
+FILES = {f"live_{app}.ipynb": [PANEL, OTHER, MEASURE, THREADS] for app in ("lab", "notebook")}
+
+
+@pytest.fixture(scope="module")
+def lab():
+    """One Jupyter server and one browser for both apps (starting them is a third of a test's
+    time); each app steers in a file, and so a kernel, of its own."""
+    with lab_browser.Lab(FILES, app="lab") as lab:
+        yield lab
+
+
 @pytest.mark.parametrize("app", ["lab", pytest.param("notebook", marks=pytest.mark.skipif(
     not notebook7(), reason="Notebook 7 is not installed (pip install notebook)"))])
-def test_a_student_steers_the_character(app):
-    with lab_browser.Lab({"live.ipynb": [PANEL, OTHER, MEASURE, THREADS]}, app=app) as lab:
-        lab.run_cells(1)
-        lab.wait_idle()
-        d = lab.driver
-        lab.start_panel()
-        lab.keys(down=["ARROW_UP"])
-        time.sleep(1.5)
-        lab.keys(down=["ARROW_LEFT"])                          # turning changes the heading
-        time.sleep(2.0)
-        lab.keys(up=["ARROW_LEFT"])
-        time.sleep(1.5)
-        lab.keys(up=["ARROW_UP"])
-        before, shown = d.execute_script(RECORD), d.execute_script(SHOWN)
-        lab.run_cell(1)                           # another cell, while the character streams
-        lab.wait_idle()
-        assert "another cell ran: True" in lab.outputs(1)
-        time.sleep(2.0)
-        assert d.execute_script(RECORD) > before + 20       # frames kept coming
-        assert d.execute_script(SHOWN) > shown + 20         # and were drawn
-        lab.run_cell(2)                           # what the keys made
-        lab.wait_idle()
-        report = lab.outputs(2)
-        assert "held forward it walks, let go it stops: holds" in report, report
-        # the panel's cell run again: the old view goes, its loop stops; no thread is left
-        lab.run_cell(0)
-        lab.wait_idle()
-        lab.run_cell(3)
-        lab.wait_idle()
-        assert re.search(r"live threads: 0", lab.outputs(3)), lab.outputs(3)
+def test_a_student_steers_the_character(lab, app):
+    lab.open(f"live_{app}.ipynb", app)
+    lab.run_cells(1)
+    lab.wait_idle()
+    d = lab.driver
+    lab.start_panel()
+    lab.keys(down=["ARROW_UP"])
+    time.sleep(1.5)
+    lab.keys(down=["ARROW_LEFT"])                          # turning changes the heading
+    time.sleep(2.0)
+    lab.keys(up=["ARROW_LEFT"])
+    time.sleep(1.5)
+    lab.keys(up=["ARROW_UP"])
+    before, shown = d.execute_script(RECORD), d.execute_script(SHOWN)
+    lab.run_cell(1)                           # another cell, while the character streams
+    lab.wait_idle()
+    assert "another cell ran: True" in lab.outputs(1)
+    time.sleep(2.0)
+    assert d.execute_script(RECORD) > before + 20       # frames kept coming
+    assert d.execute_script(SHOWN) > shown + 20         # and were drawn
+    lab.run_cell(2)                           # what the keys made
+    lab.wait_idle()
+    report = lab.outputs(2)
+    assert "held forward it walks, let go it stops: holds" in report, report
+    # the panel's cell run again: the old view goes, its loop stops; no thread is left
+    lab.run_cell(0)
+    lab.wait_idle()
+    lab.run_cell(3)
+    lab.wait_idle()
+    assert re.search(r"live threads: 0", lab.outputs(3)), lab.outputs(3)

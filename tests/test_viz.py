@@ -127,6 +127,22 @@ def test_show_leaves_still_frames_beside_the_player():
         viz.stills(object.__new__(type(anim)))
 
 
+def test_saving_an_animation_draws_each_frame_once(tmp_path):
+    """The player and the GIF draw each of the animation's frames once, after the stills too
+    (they give the figure a canvas that draws: matplotlib's redraw after each grabbed frame,
+    for a window on screen, then drew every frame twice), and the canvas is as it was after."""
+    anim = viz.animate([walker(frames=12), walker(frames=12, speed=3.0)], fps=20, step=2)
+    viz.stills(anim, n=2)                                           # as viz.show does first
+    fig, drawn = anim._fig, []
+    fig.draw = lambda renderer, draw=fig.draw: (drawn.append(1), draw(renderer))[1]
+    html = viz.to_html(anim)
+    assert len(re.findall(r"frames\[\d+\] = ", html)) == 6 and len(drawn) == 6
+    drawn.clear()
+    viz.save_gif(anim, str(tmp_path / "walk.gif"))
+    assert Image.open(tmp_path / "walk.gif").n_frames == 6 and len(drawn) == 6
+    assert "draw_idle" not in vars(fig.canvas)                    # the canvas's own method again
+
+
 def test_bone_length_plot_draws_a_growing_shin_and_the_datas():
     from motionlab import representation as rep
     from motionlab.skeleton import LOCOMOTION
