@@ -136,7 +136,8 @@ def section_2(kept: dict) -> None:
           f"(ankle, toe) of the planted height, slower than {contacts.CONTACT_SPEED_MS:g} m/s or "
           f"{contacts.BODY_FRACTION:g} x the hips' speed; released above "
           f"{contacts.RELEASE:g} x either; blend in {contacts.BLEND_S:g} s, out {contacts.RELEASE_S:g} s; "
-          f"a low foot slowed into its landing spot over the last {contacts.APPROACH_S:g} s (offline)")
+          f"a low foot slowed into its landing spot over the last {contacts.APPROACH_S:g} s (offline; the causal "
+          f"lock guesses the spot, contacts.LANDING_GUESS = {contacts.LANDING_GUESS:g})")
     features, floor, _ = next(iter(kept.values()))
     frames = to_positions(features[:1], FPS)[0]
     lock = contacts.FootLock(FPS, planted_height_m=floor)

@@ -63,6 +63,16 @@ APPROACH_S = 0.15
 spot, seconds (:func:`approach_shift`). A generated foot often comes down still sliding
 forward and is held only when it has slowed; the data's feet slow in the air."""
 
+LANDING_GUESS = 0.3
+"""The causal lock's landing step (:class:`FootLock`, which cannot see where a foot lands):
+a low foot coming down is drawn ahead along its horizontal velocity by this fraction of the
+distance that velocity would carry it before its height reaches the floor at its present
+rate of descent, over the last :data:`APPROACH_S` before it would land, and from no higher
+than :data:`APPROACH_HEIGHT` times its contact height, as the offline landing step. Measured
+on ``benchmarks/feet.py``'s samples at 0, 0.15, 0.3, 0.5 and 1: 0.3 lowers the streamed
+models' skating most with the feet's acceleration within the course's bound (0.5 and 1
+overshoot, and the feet jump back as they land)."""
+
 APPROACH_HEIGHT = 2.0
 """... and from how high: a foot joint is drawn towards its landing spot fully on the floor,
 not at all from this many times its contact height (:data:`CONTACT_HEIGHT_M`) above it. Up
@@ -177,6 +187,11 @@ class FootLock:
       smoothsteps, so the foot rejoins the motion without a jump (a heel the pivot raised
       drops back at once). A foot let go for reach stays free until its contact ends.
 
+    * **Landing.** Where the offline lock knows where a foot lands (:func:`approach_shift`),
+      this one guesses: a low foot coming down is drawn ahead along its own horizontal
+      velocity, by ``landing`` (:data:`LANDING_GUESS`; 0: off) times the distance that
+      velocity would carry it before it reaches the floor at its present rate of descent.
+
     Contacts: pass them to :meth:`step`, or let the lock detect them causally (height
     above the planted height and backward-difference speed, with hysteresis; no filter,
     which would need later frames).
@@ -184,7 +199,8 @@ class FootLock:
 
     def __init__(self, fps: float, batch: int = 1, planted_height_m=PLANTED_HEIGHT_M,
                  height_m=CONTACT_HEIGHT_M, speed_ms: float = CONTACT_SPEED_MS,
-                 body_fraction: float = BODY_FRACTION, blend_s: float = BLEND_S, release_s: float = RELEASE_S):
+                 body_fraction: float = BODY_FRACTION, blend_s: float = BLEND_S, release_s: float = RELEASE_S,
+                 landing: float = LANDING_GUESS):
         self.fps = checks.rate(fps, "fps")
         self.batch = checks.whole(batch, "batch")
         self.floor = _per_foot_joint(planted_height_m, "planted_height_m", positive=False)
@@ -193,6 +209,7 @@ class FootLock:
         self.body_fraction = checks.non_negative(body_fraction, "body_fraction", 10.0)
         self.blend = max(1.0, checks.non_negative(blend_s, "blend_s", checks.MAX_SECONDS) * self.fps)
         self.release = max(1.0, checks.non_negative(release_s, "release_s", checks.MAX_SECONDS) * self.fps)
+        self.landing = checks.non_negative(landing, "landing", 1.0)
         self.reset()
 
     def reset(self) -> None:
@@ -236,7 +253,8 @@ class FootLock:
         with the feet locked out. ``contacts`` ``(batch, 4)`` booleans (:data:`FEET` order)
         or None to detect them. ``approach`` ``(batch, 4, 2)`` or None: a horizontal shift
         (x, z) for the joints of feet the lock does not hold (:func:`approach_shift`, which
-        needs later frames: the offline lock's)."""
+        needs later frames: the offline lock's); None: the lock's own guess
+        (:meth:`landing_guess`)."""
         single = np.ndim(frame) == 2
         frame = checks.array(frame[None] if single else frame, "frame", (self.batch, LOCOMOTION.n_joints, 3))
         contact = self._detect(frame) if contacts is None else self._contacts(contacts, single)
@@ -245,11 +263,12 @@ class FootLock:
         active = in_contact.any(-1) & ~self.blocked                           # (b, feet)
         raw = frame[:, FEET]                                                  # (b, 4, 3)
         self._hold_and_let_go(raw, contact, active)
-        self.approach = np.zeros((self.batch, 4, 2))
-        if approach is not None:
+        if approach is None:
+            approach = self.landing_guess(frame)
+        else:
             approach = checks.array(approach[None] if single and np.ndim(approach) == 2 else approach, "approach",
                                     (self.batch, 4, 2))
-            self.approach = np.where(np.repeat(active, 2, axis=1)[..., None], 0.0, approach)
+        self.approach = np.where(np.repeat(active, 2, axis=1)[..., None], 0.0, approach)
         out = frame.copy()
         for leg in range(2):
             self._leg(frame, out, leg, contact, active)
@@ -259,6 +278,26 @@ class FootLock:
         self.previous = frame
         self.frames += 1
         return out[0] if single else out
+
+    def landing_guess(self, frame: np.ndarray) -> np.ndarray:
+        """The causal landing step for ``frame`` ``(batch, 21, 3)``: a horizontal shift ``(batch,
+        4, 2)`` per foot joint, from this frame and the last one only. A joint ``h`` above its
+        planted height that came down ``d`` since the last frame lands in about ``n = h / d``
+        frames; it is drawn ahead by ``landing * n`` times its last horizontal step, weighted as
+        :func:`approach_shift` weighs its shift (a smoothstep from 0, :data:`APPROACH_S` and a
+        frame before the landing, as it nears, times how near the floor the joint is)."""
+        if self.previous is None or self.landing == 0:
+            return np.zeros((self.batch, 4, 2))
+        now, before = frame[:, FEET], self.previous[:, FEET]                 # (b, 4, 3)
+        height = np.maximum(now[..., 1] - self.floor, 0.0)
+        fall = before[..., 1] - now[..., 1]                                   # metres this frame, > 0: coming down
+        frames = np.where(fall > 1e-4, height / np.maximum(fall, 1e-4), np.inf)
+        steps = APPROACH_S * self.fps
+        soon = frames < steps + 1                              # where the weight below is above 0
+        n = np.where(soon, frames, 0.0)
+        near = 1 - smoothstep(height / (APPROACH_HEIGHT * self.height_m))
+        w = np.where(soon, smoothstep(1 - n / (steps + 1)), 0.0) * near
+        return (self.landing * w * n)[..., None] * (now[..., [0, 2]] - before[..., [0, 2]])
 
     def _hold_and_let_go(self, raw: np.ndarray, contact: np.ndarray, active: np.ndarray) -> None:
         """The feet's offsets ``O`` and height corrections for this frame (see the class)."""

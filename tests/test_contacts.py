@@ -6,9 +6,10 @@ import torch
 
 from motionlab import contacts, metrics, synthetic
 from motionlab import representation as rep
+from motionlab.filters import smoothstep
 from motionlab.skeleton import FEET, LOCOMOTION
 
-from conftest import cmu_files, requires_cmu
+from conftest import cmu_files, requires_cmu, walker
 
 FPS = 20.0
 ABOVE_HIPS = [j for j in range(LOCOMOTION.n_joints) if j not in {k for leg in contacts.LEGS for k in leg[1:]}]
@@ -235,7 +236,7 @@ def test_the_causal_lock_needs_no_future_and_equals_the_offline_one_given_the_sa
     slides = sliding(walking)
     offline = contacts.lock(slides, FPS, approach_s=0.0)
     floor = contacts.planted_heights(slides)
-    lock = contacts.FootLock(FPS, batch=2, planted_height_m=floor)
+    lock = contacts.FootLock(FPS, batch=2, planted_height_m=floor, landing=0.0)    # no landing step either
     stepped = np.stack([lock.step(slides[:, t], offline.contacts[:, t]) for t in range(slides.shape[1])], axis=1)
     np.testing.assert_allclose(stepped, offline.positions, atol=1e-12)
     # the offline lock is the causal one given the contacts and the approach, its one look-ahead
@@ -253,6 +254,36 @@ def test_the_causal_lock_needs_no_future_and_equals_the_offline_one_given_the_sa
     second = np.stack([one.step(frame) for frame in changed])
     np.testing.assert_array_equal(first[:60], second[:60])
     assert skating(first[None], floor) < 0.6 * skating(slides[:1], floor)
+
+
+def test_the_causal_lock_guesses_where_a_low_foot_coming_down_lands():
+    """FootLock's landing step from two frames: an ankle 3 cm above its planted height that
+    came down 1.5 cm lands in 2 frames, within APPROACH_S at 20 fps; it is drawn ahead along
+    its last horizontal step by LANDING_GUESS x 2 steps, weighted by how soon and how low."""
+    floor, ankle = np.asarray(contacts.PLANTED_HEIGHT_M), FEET[0]
+    before = walker(frames=1)[0]
+    before[FEET, 1] = floor + 0.5                                           # every foot joint high: no guess
+    before[ankle, 1] = floor[0] + 0.045
+    now = before.copy()
+    now[ankle] += [0.04, -0.015, 0.02]                       # came down 1.5 cm, stepped (4, 2) cm: too fast to hold
+    lock = contacts.FootLock(FPS, planted_height_m=floor)
+    assert not lock.landing_guess(before[None]).any()                       # no last frame yet
+    lock.step(before)
+    guess = lock.landing_guess(now[None])[0]
+    n, steps = 2.0, contacts.APPROACH_S * FPS
+    weight = smoothstep(1 - n / (steps + 1)) * (1 - smoothstep(
+        0.03 / (contacts.APPROACH_HEIGHT * contacts.CONTACT_HEIGHT_M[0])))
+    np.testing.assert_allclose(guess[0], contacts.LANDING_GUESS * weight * n * np.array([0.04, 0.02]))
+    assert 0 < weight < 1 and not guess[1:].any()                           # the high joints: nothing
+    rising = now.copy()
+    rising[ankle, 1] = floor[0] + 0.05                                      # going up: it does not land
+    assert not lock.landing_guess(rising[None]).any()
+    off = contacts.FootLock(FPS, planted_height_m=floor, landing=0.0)
+    off.step(before)
+    assert not off.landing_guess(now[None]).any()
+    out = lock.step(now)                                                    # step() applies it to the free foot
+    assert not lock.locked.any() and np.isfinite(out).all()
+    np.testing.assert_allclose(lock.approach[0], guess)
 
 
 def test_a_landing_foot_is_slowed_into_its_spot_only_while_low(walking):
@@ -367,6 +398,8 @@ def test_skating_ratio_and_foot_acceleration(walking):
     (lambda w: contacts.fit_bones(w[0], lengths=np.ones(3)), "lengths"),
     (lambda w: contacts.FootLock(FPS, batch=2).step(w[0, 0]), "frame"),
     (lambda w: contacts.FootLock(FPS).step(w[0, 0], contacts=np.ones(3, bool)), "contacts"),
+    (lambda w: contacts.FootLock(FPS, landing=-0.1), "landing"),
+    (lambda w: contacts.FootLock(FPS, landing=float("nan")), "landing"),
     (lambda w: contacts.foot_velocity(np.zeros((4, 66)), FPS), "features"),
     (lambda w: metrics.skating_ratio(w[0, :1], FPS), "positions"),
     (lambda w: metrics.foot_acceleration(w[0], FPS, percentile=120), "percentile"),
