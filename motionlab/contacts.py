@@ -292,11 +292,8 @@ class FootLock:
         height = np.maximum(now[..., 1] - self.floor, 0.0)
         fall = before[..., 1] - now[..., 1]                                   # metres this frame, > 0: coming down
         frames = np.where(fall > 1e-4, height / np.maximum(fall, 1e-4), np.inf)
-        steps = APPROACH_S * self.fps
-        soon = frames < steps + 1                              # where the weight below is above 0
-        n = np.where(soon, frames, 0.0)
-        near = 1 - smoothstep(height / (APPROACH_HEIGHT * self.height_m))
-        w = np.where(soon, smoothstep(1 - n / (steps + 1)), 0.0) * near
+        w = _landing_weight(frames, APPROACH_S * self.fps, height, self.height_m)
+        n = np.where(w > 0, frames, 0.0)
         return (self.landing * w * n)[..., None] * (now[..., [0, 2]] - before[..., [0, 2]])
 
     def _hold_and_let_go(self, raw: np.ndarray, contact: np.ndarray, active: np.ndarray) -> None:
@@ -395,6 +392,18 @@ class Locked:
         return self.reach_releases / max(self.contacts_started, 1)
 
 
+def _landing_weight(frames_to_land, steps: float, above_m, contact_height_m) -> np.ndarray:
+    """How far a landing step draws a foot joint towards where it lands (the offline
+    :func:`approach_shift` and :class:`FootLock`'s guess): a smoothstep from 0, ``steps + 1``
+    frames before the landing, as ``frames_to_land`` nears, times how near the floor the
+    joint is (``above_m`` over its planted height: 1 on it, 0 from :data:`APPROACH_HEIGHT`
+    times ``contact_height_m`` up)."""
+    soon = frames_to_land < steps + 1
+    n = np.where(soon, frames_to_land, 0.0)
+    near = 1 - smoothstep(above_m / (APPROACH_HEIGHT * np.asarray(contact_height_m)))
+    return np.where(soon, smoothstep(1 - n / (steps + 1)), 0.0) * near
+
+
 def approach_shift(positions, contacts, fps: float, planted_height_m, approach_s: float = APPROACH_S) -> np.ndarray:
     """For the frames just before each contact begins, the horizontal shift ``(..., frames,
     4, 2)`` (x, z) that draws each foot joint of ``positions`` ``(..., frames, 21, 3)``
@@ -414,7 +423,7 @@ def approach_shift(positions, contacts, fps: float, planted_height_m, approach_s
     steps = checks.non_negative(approach_s, "approach_s", checks.MAX_SECONDS) * checks.rate(fps, "fps")
     feet = positions[..., FEET, :]
     xz = feet[..., [0, 2]]                                                  # (..., frames, 4, 2)
-    near = 1 - smoothstep((feet[..., 1] - planted_height_m) / (APPROACH_HEIGHT * np.asarray(CONTACT_HEIGHT_M)))
+    above = feet[..., 1] - planted_height_m                                  # (..., frames, 4)
     shift = np.zeros(xz.shape)
     until = np.full(contacts.shape[:-2] + (len(FEET),), np.inf)              # frames to the next landing
     spot = np.zeros(xz.shape[:-3] + xz.shape[-2:])
@@ -422,7 +431,7 @@ def approach_shift(positions, contacts, fps: float, planted_height_m, approach_s
         lands = contacts[..., t + 1, :] & ~contacts[..., t, :]
         until = np.where(contacts[..., t, :], np.inf, np.where(lands, 1.0, until + 1))
         spot = np.where(lands[..., None], xz[..., t + 1, :, :], spot)
-        w = np.where(until <= np.ceil(steps), smoothstep(1 - until / (steps + 1)), 0.0) * near[..., t, :]
+        w = _landing_weight(until, steps, above[..., t, :], CONTACT_HEIGHT_M)
         shift[..., t, :, :] = w[..., None] * (spot - xz[..., t, :, :])
     return shift
 
