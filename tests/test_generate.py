@@ -155,3 +155,24 @@ def test_the_shipped_models_load_ready_to_generate(real):
         assert result.features.shape[0] == 2 and np.isfinite(result.positions).all(), name
     with pytest.raises(ValueError, match="name: expected one of"):
         pretrained.load("moglow_paper")
+
+
+@pytest.mark.parametrize("name", ["glow", "moglow", "moglow_markov", "lstm"])
+def test_samples_that_are_not_finite_are_refused_by_name(models, real, name):
+    """A flow whose inverse overflows (a coupling's scale near 0, which the inverse divides by) or a model
+    with broken weights makes NaN/inf: generate refuses them, naming the temperature for a flow."""
+    import copy
+    from motionlab.models.flows import AffineCoupling
+    model = copy.deepcopy(models[name])
+    with torch.no_grad():
+        if name == "lstm":
+            next(model.parameters()).fill_(float("nan"))
+            expected = "generate: MotionLSTM made 2 of 2 samples that are not finite"
+        else:                                         # raw scale -200: the inverse multiplies by about e^198
+            coupling = next(m for m in model.modules() if isinstance(m, AffineCoupling))
+            last = [m for m in coupling.network.modules()
+                    if isinstance(getattr(m, "bias", None), torch.Tensor) and m.bias.shape == (2 * coupling.n_hi,)][-1]
+            last.bias[coupling.n_hi:] = -200.0
+            expected = f"temperature: {type(model).__name__} made 2 of 2 samples that are not finite"
+    with pytest.raises(ValueError, match=expected):
+        call(model, real)

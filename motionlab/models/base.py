@@ -234,6 +234,16 @@ class GenerativeModel:
 
     def _result_in_data_units(self, features) -> Generated:
         features = np.asarray(features, dtype=np.float64)
+        bad = ~np.isfinite(features).reshape(len(features), -1).all(axis=1)
+        if bad.any():
+            # a flow's inverse divides by its couplings' scales: latents drawn far from the centre (a high
+            # temperature) can overflow in a model whose scales get small there
+            flow = hasattr(self, "nll")
+            raise ValueError(("temperature: " if flow else "generate: ")
+                             + f"{type(self).__name__} made {int(bad.sum())} of {len(features)} samples that are "
+                             "not finite (NaN or infinite); "
+                             + ("a flow's inverse can overflow for latents far from the centre: try a lower "
+                                "temperature" if flow else "were its weights trained to a finite loss?"))
         return Generated(features, to_positions(features, self.fps), float(self.fps))
 
     @property
