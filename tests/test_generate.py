@@ -1,5 +1,7 @@
 """One generation contract: every generative model answers the same ``generate`` call
 (:mod:`motionlab.models.base`), checked here by one piece of code over all of them."""
+import copy
+
 import numpy as np
 import pytest
 import torch
@@ -8,6 +10,7 @@ from motionlab import data, pretrained
 from motionlab.models.base import Generated, GenerativeModel, eval_mode
 from motionlab.models.conv_ae import ConvAEConfig, ConvAutoencoder
 from motionlab.models.dfn import DFN, DFNConfig
+from motionlab.models.flows import AffineCoupling
 from motionlab.models.glow import Glow, GlowConfig
 from motionlab.models.lstm import LSTMConfig, MotionLSTM
 from motionlab.models.moglow import MoGlow, MoGlowConfig
@@ -161,8 +164,6 @@ def test_the_shipped_models_load_ready_to_generate(real):
 def test_samples_that_are_not_finite_are_refused_by_name(models, real, name):
     """A flow whose inverse overflows (a coupling's scale near 0, which the inverse divides by) or a model
     with broken weights makes NaN/inf: generate refuses them, naming the temperature for a flow."""
-    import copy
-    from motionlab.models.flows import AffineCoupling
     model = copy.deepcopy(models[name])
     with torch.no_grad():
         if name == "lstm":

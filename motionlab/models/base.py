@@ -18,6 +18,9 @@ Each model file is written beside its paper, but they all answer the same call::
 * ``n`` samples, the prior's ``temperature`` (1: the model; 0: its most likely path, where
   it has one) and the ``seed`` of the noise, so a call is reproducible.
 
+A bad argument raises ``ValueError`` naming it, and so does a sample that is not finite: a
+flow's inverse can overflow at a high temperature (the message names ``temperature``).
+
 Generation works in the data's units because the model carries the
 :class:`motionlab.data.Normalizer` of its training data as ``model.normalizer`` (set by
 :func:`motionlab.training.train`, :func:`motionlab.training.load_checkpoint` and
