@@ -11,7 +11,7 @@ what does it cost?
 Each model is trained by its recipe of ``make checkpoints`` (the Makefile; the command line
 ``python -m motionlab.train``) without the term and with each weight of ``--weights``
 (``--set contact_weight=W``; defaults :data:`WEIGHTS`, chosen from the term's scale against
-each loss), for the VAE-LSTM also with each of ``--bone-weights`` (``--set bone_weight=W``:
+each loss), for the VAE-LSTM and the conv AE also with each of ``--bone-weights`` (``--set bone_weight=W``:
 the squared error of the reconstruction's bone lengths, cm²; default 0, off; with ``--skeleton``
 every VAE-LSTM run has the skeleton output layer, ``--set skeleton=true``), for each of
 ``--seeds`` (the command line's seed: the training clips and the
@@ -72,7 +72,7 @@ class Run:
     model: str                     # "vae_lstm", "dfn" or "conv_ae"
     weight: float
     seed: int
-    bone: float = 0.0              # the VAE-LSTM's bone_weight
+    bone: float = 0.0              # the VAE-LSTM's or the conv AE's bone_weight
     skeleton: bool = False         # the VAE-LSTM's skeleton output layer
 
     @property
@@ -209,7 +209,7 @@ def conv_ae_row(run: Run, checkpoint, windows: np.ndarray, rest: np.ndarray) -> 
         errors[name] = tuple(metrics.window_errors(trivial, truth, FPS).values())
     verdict = claims.beats_trivial_reconstructions(errors, "conv AE")
     r = metrics.locomotion_report(features, FPS, rest)
-    print(f"| conv AE (reconstructions) | {run.weight:g} | | {run.seed} | {checkpoint.history.seconds:.0f} "
+    print(f"| conv AE (reconstructions) | {run.weight:g} | {run.bone:g} | {run.seed} | {checkpoint.history.seconds:.0f} "
           f"| {term:.3f} "
           f"| {100 * r['foot skating (m/s)']:.1f} | {locked_skating(features, rest):.1f} "
           f"| pose {100 * errors['conv AE'][0]:.2f} | | | {100 * r['bone drift']:.2f} | n/a | n/a "
@@ -278,7 +278,8 @@ def main(argv: list[str] | None = None) -> None:
                         help="contact weights (> 0) besides 0, for every model (default: per model, "
                              + "; ".join(f"{m} {' '.join(f'{w:g}' for w in ws)}" for m, ws in WEIGHTS.items()) + ")")
     parser.add_argument("--bone-weights", nargs="+", type=float, default=[],
-                        help="bone-length weights (> 0) besides 0, the VAE-LSTM only (default: none)")
+                        help="bone-length weights (> 0) besides 0, the VAE-LSTM and the conv AE only "
+                             "(default: none)")
     parser.add_argument("--skeleton", action="store_true",
                         help="the VAE-LSTM's runs with its skeleton output layer (--set skeleton=true)")
     parser.add_argument("--seeds", nargs="+", type=int, default=[0], help="seeds of the trainings (default 0)")
@@ -295,8 +296,9 @@ def main(argv: list[str] | None = None) -> None:
     if args.weights is not None and not all(np.isfinite(w) and w > 0 for w in args.weights):
         parser.error(f"--weights: expected numbers > 0 (0 is always run), got {args.weights}")
     if not all(np.isfinite(w) and w > 0 for w in args.bone_weights) \
-            or (args.bone_weights and args.model != ["vae_lstm"]):
-        parser.error(f"--bone-weights: expected numbers > 0, with --model vae_lstm only; got {args.bone_weights}")
+            or (args.bone_weights and not set(args.model) <= {"vae_lstm", "conv_ae"}):
+        parser.error(f"--bone-weights: expected numbers > 0, with --model vae_lstm or conv_ae only; "
+                     f"got {args.bone_weights}")
     if args.skeleton and args.model != ["vae_lstm"]:
         parser.error("--skeleton: the VAE-LSTM's option, with --model vae_lstm only")
     if args.epochs < 1 or args.jobs < 1 or (args.threads is not None and args.threads < 1) \

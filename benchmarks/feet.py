@@ -45,7 +45,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from motionlab import comparison, contacts, experiments, metrics, recipes, synthetic, training
+from motionlab import comparison, contacts, experiments, metrics, pretrained, recipes, synthetic, training
 from motionlab import models as models_module
 from motionlab.representation import N_POSE, to_positions
 
@@ -197,10 +197,13 @@ def own_models(parser: argparse.ArgumentParser, pairs: list[str]) -> dict:
         label, _, path = pair.partition("=")
         if label not in entries or not path:
             parser.error(f"--checkpoint: expected LABEL=PATH with LABEL one of {', '.join(entries)}, got {pair!r}")
+        name = recipes.recipe(entries[label].name).model
+        kind = models_module.card(name).model
         model = training.load_checkpoint(path).model
-        kind = models_module.card(recipes.recipe(entries[label].name).model).model
         if not isinstance(model, kind):
             parser.error(f"--checkpoint: {path} holds a {type(model).__name__}, not the {kind.__name__} of {label}")
+        if name == "vae":                  # the feature VAE with the conv AE that decodes its features
+            model = pretrained.load_motion_vae(path)
         models[label] = (entries[label], model)
     return models
 

@@ -1,12 +1,13 @@
-"""The bone-length term in the VAE-LSTM's loss (``bone_weight``): off by default and then the
-old loss bit for bit; on, it is the squared error of the reconstruction's bone lengths (cm²)
-and training with it keeps the bones nearer their lengths."""
+"""The bone-length term in the VAE-LSTM's and the conv autoencoder's losses (``bone_weight``):
+off by default and then the old loss bit for bit; on, it is the squared error of the
+reconstruction's bone lengths (cm²) and training with it keeps the bones nearer their lengths."""
 import numpy as np
 import pytest
 import torch
 
 from motionlab import metrics, training
 from motionlab.models.base import bone_term
+from motionlab.models.conv_ae import ConvAEConfig, ConvAutoencoder
 from motionlab.models.vae_lstm import VAELSTM, VAELSTMConfig
 from motionlab.representation import N_POSE, to_positions
 from motionlab.skeleton import LOCOMOTION
@@ -75,3 +76,46 @@ def test_the_term_needs_the_normalizer(prepared):
     m.normalizer = None
     with pytest.raises(ValueError, match="bone_weight: .*normaliser"):
         m.loss(prepared.train.windows[:2])
+
+
+# ----------------------------------------------------------------------------------------
+# Motegi's conv autoencoder (whose decoder also decodes the VAE's samples)
+# ----------------------------------------------------------------------------------------
+
+def conv_ae(prepared, bone: float, contact: float = 0.0) -> ConvAutoencoder:
+    torch.manual_seed(0)
+    m = ConvAutoencoder(ConvAEConfig(window=16, filters=8, width=5, input_dropout=0.0, bone_weight=bone,
+                                     contact_weight=contact))
+    m.normalizer = prepared.normalizer
+    return m
+
+
+def test_the_conv_autoencoders_term_adds_its_weight_times_the_bone_error(prepared):
+    batch = prepared.train.windows[:8]
+    assert ConvAEConfig().bone_weight == 0.0
+    plain = conv_ae(prepared, 0.0).loss(batch)
+    assert set(plain) == {"loss", "mse"}                           # off: the old loss, nothing added
+    on = conv_ae(prepared, 2.0).loss(batch)
+    assert torch.equal(on["mse"], plain["mse"]) and float(on["bone"]) > 0 and not on["bone"].requires_grad
+    assert torch.isclose(on["loss"], plain["loss"] + 2.0 * on["bone"])
+    both = conv_ae(prepared, 2.0, contact=1.0).loss(batch)         # each term logged, both added
+    assert torch.isclose(both["loss"], plain["loss"] + 2.0 * both["bone"] + both["contact"])
+    with pytest.raises(ValueError, match="bone_weight"):
+        ConvAEConfig(bone_weight=-1.0)
+    bare = conv_ae(prepared, 1.0)
+    bare.normalizer = None
+    with pytest.raises(ValueError, match="bone_weight: .*normaliser"):
+        bare.loss(batch)
+
+
+def test_training_the_conv_autoencoder_with_the_term_keeps_the_bones_nearer_their_lengths(prepared):
+    val = prepared.val.windows[:, :16]
+    config = training.TrainConfig(epochs=100, max_steps=80, lr=3e-3, batch_size=16, progress=False)
+    drift = {}
+    for weight in (0.0, 1.0):
+        m = conv_ae(prepared, weight)
+        history = training.train(m, prepared, config)
+        assert ("bone" in history.train[-1]) == (weight > 0)
+        rebuilt = prepared.normalizer.denormalize(m.project(val).double().numpy())
+        drift[weight] = metrics.bone_length_drift(to_positions(rebuilt, FPS))
+    assert drift[1.0] < 0.8 * drift[0.0]

@@ -36,3 +36,11 @@ def test_a_checkpoint_of_ones_own_is_measured_alone_on_as_many_bodies_as_asked(f
     # section 2b's raw and offline columns are section 1's figures, measured again on the same samples
     assert causal[1:3] == [raw[2], finished[2]]
     assert float(causal[3]) > 0 and float(causal[5]) > 0
+
+
+def test_the_vae_of_ones_own_is_loaded_with_the_conv_ae_that_decodes_it(feet, capsys):
+    # a vae checkpoint holds the feature VAE; its samples need the conv AE it names
+    feet.main(["--samples", "1", "--paths", "walk", "--checkpoint",
+               f"VAE={ROOT / 'motionlab' / 'checkpoints' / 'vae.pt'}"])
+    rows = [line for line in capsys.readouterr().out.splitlines() if line.startswith("| VAE, walk")]
+    assert len(rows) == 4

@@ -25,7 +25,7 @@ from torch import nn
 
 from .. import checks
 from ..representation import N_POSE
-from .base import check_tensor, contact_term, eval_mode
+from .base import bone_term, check_tensor, contact_term, eval_mode
 from .modelcard import NO_CLIP, ModelCard, choice, paper
 
 
@@ -50,6 +50,8 @@ class ConvAEConfig:
         contact_weight: weight of the foot-contact velocity term (HuMoR, EDGE, MDM; see
             :meth:`ConvAutoencoder.loss`), per (m/s)² of planted-foot velocity; 0 = off (the
             shipped model).
+        bone_weight: weight of the bone-length term (:meth:`ConvAutoencoder.loss`), per cm²
+            of squared bone-length error; 0 = off (the shipped model).
     """
 
     n_features: int = 66
@@ -62,9 +64,10 @@ class ConvAEConfig:
     depool: str = "nearest"
     l1: float = 1e-5
     contact_weight: float = 0.0
+    bone_weight: float = 0.0
 
     def __post_init__(self):
-        checks.config(self, non_negative_fields=("input_noise", "l1", "contact_weight"),
+        checks.config(self, non_negative_fields=("input_noise", "l1", "contact_weight", "bone_weight"),
                       probability_fields=("input_dropout",))
         if self.window % 2 or self.window < 2:
             raise ValueError(f"window: must be even and >= 2 (pooling halves it), got {self.window}")
@@ -195,14 +198,16 @@ class ConvAutoencoder(nn.Module):
         reconstruction = F.mse_loss(out, batch)
         l1 = self.encoder.weight.abs().sum() + self.decoder.weight.abs().sum()
         terms = {"loss": reconstruction + self.config.l1 * l1, "mse": reconstruction}
-        if self.config.contact_weight > 0:
-            if self.config.n_features != N_POSE + 3:
-                raise ValueError(f"contact_weight: needs the {N_POSE + 3} locomotion features, "
-                                 f"got n_features={self.config.n_features}")
-            contact = contact_term(self, torch.cat([out[..., :N_POSE], batch[..., N_POSE:]], -1), batch,
-                                   self.config.fps)
-            terms["loss"] = terms["loss"] + self.config.contact_weight * contact
-            terms["contact"] = contact.detach()
+        for name, weight, term in (("contact", self.config.contact_weight,
+                                    lambda p, t: contact_term(self, p, t, self.config.fps)),
+                                   ("bone", self.config.bone_weight, lambda p, t: bone_term(self, p, t))):
+            if weight > 0:
+                if self.config.n_features != N_POSE + 3:
+                    raise ValueError(f"{name}_weight: needs the {N_POSE + 3} locomotion features, "
+                                     f"got n_features={self.config.n_features}")
+                value = term(torch.cat([out[..., :N_POSE], batch[..., N_POSE:]], -1), batch)
+                terms["loss"] = terms["loss"] + weight * value
+                terms[name] = value.detach()
         return terms
 
     def trace(self, x: torch.Tensor) -> list[tuple[str, tuple[int, ...]]]:
