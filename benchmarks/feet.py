@@ -8,8 +8,9 @@ lengths, then the feet locked: ``motionlab.contacts``), walking and running.
     python benchmarks/feet.py --samples 12 --checkpoint DFN=runs/dfn.pt   # a model of your own, 12 bodies
 
 Section 1. Every model of notebook 08 (``comparison.ENTRIES``) follows the built-in walk
-(1.5 m/s) and run (2.2 m/s) presets (or ``--paths``: any of ``synthetic.PRESETS``) for 10 s, from four held-out bodies' standing
-half-second (``--samples``: more bodies); the bodies on the same paths are the data's rows.
+(1.3 m/s) and run (3.2 m/s) presets, as the data's bodies walk them from standing (or ``--paths``:
+any of ``synthetic.PRESETS``) for 10 s, from four held-out bodies' standing half-second
+(``--samples``: more bodies); the bodies on the same paths are the data's rows.
 ``--checkpoint LABEL=PATH`` measures a checkpoint of your own in the place of the shipped
 model ``LABEL`` (a label of ``comparison.ENTRIES``), and only the models named so. A model without a
 control draws freely (the VAE: 4-s windows; DFN continues the standing frames); Glow draws

@@ -55,9 +55,10 @@ RELEASE = 1.5
 """Hysteresis: a joint in contact stays in contact until it is more than ``RELEASE`` times
 a threshold above it (height or speed), so noise near a threshold does not flicker."""
 
-CLEAN_S = 0.15
-"""Width of the majority filter that cleans the labels offline, seconds (3 frames at 20
-fps): a contact or a gap shorter than half of it is removed."""
+CLEAN_S = 0.25
+"""Width of the majority filter that cleans the labels offline, seconds (the odd number of
+frames nearest to it: 5 at 20 fps): a contact or a gap shorter than half of it (one or two
+frames at 20 fps) is removed."""
 
 
 def _positions(positions, name: str = "positions") -> np.ndarray:
@@ -146,7 +147,7 @@ def detect(positions, fps: float, planted_height_m=None, height_m=CONTACT_HEIGHT
     moves horizontally slower than ``speed_ms`` (measured over ``speed_window_s`` seconds:
     :func:`horizontal_speed`), and stays in it until it is more than :data:`RELEASE` times
     either threshold above. The labels are then cleaned by a majority filter over
-    ``clean_s`` seconds (0: none).
+    ``clean_s`` seconds (the odd number of frames nearest to it; 0: none).
 
     Args:
         planted_height_m: each joint's planted height (``(4,)`` or one value, metres);
@@ -172,7 +173,7 @@ def detect(positions, fps: float, planted_height_m=None, height_m=CONTACT_HEIGHT
     limit = np.maximum(speed_ms, body_fraction * hips)[..., None]
     labels = _hysteresis((above < height_m) & (speed < limit),
                          (above < RELEASE * height_m) & (speed < RELEASE * limit))
-    width = 2 * int(round(clean_s * fps / 2)) + 1
+    width = 2 * int(np.floor((clean_s * fps - 1) / 2 + 0.5)) + 1 if clean_s > 0 else 1     # odd, nearest
     return _majority(labels, min(width, 2 * ((labels.shape[-2] - 1) // 2) + 1))
 
 
