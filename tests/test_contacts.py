@@ -69,6 +69,18 @@ def test_the_majority_filter_removes_one_frame_flickers(walking):
     assert not contacts.detect(flicker, FPS, floor, clean_s=0)[20, 1]
 
 
+@pytest.mark.parametrize("fps, frames", [(20.0, 5), (30.0, 7), (60.0, 15)])
+def test_the_majority_filter_spans_the_odd_number_of_frames_nearest_clean_s(walking, fps, frames):
+    # contacts.CLEAN_S (0.25 s) is 5 frames at 20 fps: a gap of half of it or less is filled, one
+    # frame longer is kept; the same in seconds at other frame rates
+    standing = np.repeat(walking[0, :1], 80, axis=0)
+    floor = contacts.planted_heights(standing)
+    for gap, filled in ((frames // 2, True), (frames // 2 + 1, False)):
+        lifted = standing.copy()
+        lifted[40:40 + gap, FEET[1], 1] += 0.2
+        assert contacts.detect(lifted, fps, floor)[40:40 + gap, 1].all() == filled, (gap, filled)
+
+
 def test_horizontal_speed_is_central_differences_over_its_window(walking):
     positions = walking[0]
     xz_speed = np.linalg.norm(np.gradient(positions[..., [0, 2]], axis=0), axis=-1) * FPS
