@@ -52,16 +52,23 @@ def test_off_it_is_the_old_loss_and_on_it_adds_its_weight_times_the_term(prepare
     assert float(with_term["bone"]) > 0 and not with_term["bone"].requires_grad
 
 
-def test_training_with_the_term_keeps_the_bones_nearer_their_lengths(prepared):
-    val = prepared.val.windows
-    config = training.TrainConfig(epochs=100, max_steps=60, lr=3e-3, batch_size=16, progress=False)
+def drift_after_training(prepared, make, rebuild, val, weights, max_steps: int) -> dict:
+    """``{weight: bone drift}`` of ``val`` rebuilt by ``rebuild(model, val)`` after training
+    ``make(prepared, weight)`` briefly at each weight (the term logged only when it is on)."""
+    config = training.TrainConfig(epochs=100, max_steps=max_steps, lr=3e-3, batch_size=16, progress=False)
     drift = {}
-    for weight in (0.0, 3.0):
-        m = model(prepared, weight)
+    for weight in weights:
+        m = make(prepared, weight)
         history = training.train(m, prepared, config)
         assert ("bone" in history.train[-1]) == (weight > 0)
-        rebuilt = prepared.normalizer.denormalize(m.reconstruct(val).double().numpy())
+        rebuilt = prepared.normalizer.denormalize(rebuild(m, val).double().numpy())
         drift[weight] = metrics.bone_length_drift(to_positions(rebuilt, FPS))
+    return drift
+
+
+def test_training_with_the_term_keeps_the_bones_nearer_their_lengths(prepared):
+    drift = drift_after_training(prepared, model, lambda m, x: m.reconstruct(x), prepared.val.windows,
+                                 (0.0, 3.0), max_steps=60)
     assert drift[3.0] < 0.8 * drift[0.0]
 
 
@@ -109,13 +116,6 @@ def test_the_conv_autoencoders_term_adds_its_weight_times_the_bone_error(prepare
 
 
 def test_training_the_conv_autoencoder_with_the_term_keeps_the_bones_nearer_their_lengths(prepared):
-    val = prepared.val.windows[:, :16]
-    config = training.TrainConfig(epochs=100, max_steps=80, lr=3e-3, batch_size=16, progress=False)
-    drift = {}
-    for weight in (0.0, 1.0):
-        m = conv_ae(prepared, weight)
-        history = training.train(m, prepared, config)
-        assert ("bone" in history.train[-1]) == (weight > 0)
-        rebuilt = prepared.normalizer.denormalize(m.project(val).double().numpy())
-        drift[weight] = metrics.bone_length_drift(to_positions(rebuilt, FPS))
+    drift = drift_after_training(prepared, conv_ae, lambda m, x: m.project(x), prepared.val.windows[:, :16],
+                                 (0.0, 1.0), max_steps=80)
     assert drift[1.0] < 0.8 * drift[0.0]
