@@ -19,7 +19,9 @@ notebook's); the others at their notebook's. Per row: foot skating (``metrics.fo
 heights) and its ratio to the data's, GMD's skating ratio (``metrics.skating_ratio``),
 stepping and leg swing against the data's, bone drift, the feet's 99th-percentile
 acceleration against the larger of the data's and the raw motion's, and for the finished
-motion the share of contacts whose lock let go because the leg could not reach.
+motion the share of contacts whose lock let go because the leg could not reach. A model with
+a contact head is finished holding the contacts it drew as well as the detected ones
+(``contacts.finish(..., drawn=...)``).
 
 Section 2. The lock alone (no bone fitting) on the same samples: the bone drift it adds
 (target: at most 0.1 % more than the raw motion's) and whether anything above the hips
@@ -28,7 +30,9 @@ moved; the contact thresholds; the causal lock's time per frame for one stream.
 Section 2b. The causal lock (``contacts.FootLock``, as the live character runs it: each frame
 locked with no later frame, contacts detected as it goes) beside the offline lock, on the
 bone-fitted samples at each notebook's temperature: skating against the data's and the
-feet's 99th-percentile acceleration.
+feet's 99th-percentile acceleration. For a model with a contact head, also the causal lock
+given the contacts the model drew besides the ones it detects (``FootLock.step(...,
+drawn=...)``), as the live character runs such a model.
 
 Section 3 (``--data``). notebook 08's table on the folder's 4-s windows: the shipped models
 (trained on built-in clips), raw and finished, beside the real data.
@@ -84,9 +88,15 @@ def line(label: str, m: dict, reach: float | None = None) -> str:
             + ("" if reach is None else f"{100 * reach:.0f} %") + " |")
 
 
+DRAWN = {}
+"""``{(label, path, temperature): contacts}``: what a model with a contact head drew for the
+samples of section 1 (``Generated.contacts``), for section 2b's causal lock."""
+
+
 def samples_on(path: str, models: dict, n: int = N) -> tuple[np.ndarray, dict]:
     """``n`` of the data's bodies on a preset path and every model's samples on it, at every
-    temperature for the flows: ``(data (n, frames, 66), {(label, temperature): features})``."""
+    temperature for the flows: ``(data (n, frames, 66), {(label, temperature): features})``
+    (and a contact head's drawn contacts into :data:`DRAWN`)."""
     walks = experiments.preset_walks(path, SECONDS, FPS, n, lead_frames=comparison.PREFIX_FRAMES)
     prefix, truth = walks[:, :comparison.PREFIX_FRAMES], walks[:, comparison.PREFIX_FRAMES:]
     out = {}
@@ -95,7 +105,10 @@ def samples_on(path: str, models: dict, n: int = N) -> tuple[np.ndarray, dict]:
         temperatures = sorted({*TEMPERATURES, entry.temperature}) if flow else (entry.temperature,)
         control = truth[0, :entry.window or truth.shape[1], N_POSE:]
         for t in temperatures:
-            out[label, t] = comparison.respond(replace(entry, temperature=t), model, control, prefix, n=n)
+            generated = comparison.respond(replace(entry, temperature=t), model, control, prefix, n=n, whole=True)
+            out[label, t] = generated.features
+            if generated.contacts is not None:
+                DRAWN[label, path, t] = generated.contacts
     return truth, out
 
 
@@ -114,7 +127,8 @@ def section_1(models: dict, paths=PATHS, data_bones: bool = False, n: int = N) -
         print(line(f"**data**, {path}", measures(truth, truth, floor)))
         for (label, t), features in generated.items():
             data = truth[:, :features.shape[1]]
-            done = contacts.finish(features, FPS, planted_height_m=floor, bone_lengths=body)
+            done = contacts.finish(features, FPS, planted_height_m=floor, bone_lengths=body,
+                                   drawn=DRAWN.get((label, path, t)))
             print(line(f"{label}, {path}, τ = {t:g}", measures(features, data, floor)))
             print(line(f"{label}, {path}, τ = {t:g}, finished", measures(done.features, data, floor, features),
                        done.lock.out_of_reach))
@@ -157,8 +171,9 @@ def section_2b(kept: dict, models: dict) -> None:
     print("\n## 2b. The causal lock, as the live character uses it: bones fitted, then contacts detected and feet "
           "locked frame by frame, with no later frame (`contacts.FootLock`), at each notebook's temperature\n")
     print("| model, path, temperature | skating / data's: raw | finished (offline lock) | causal lock "
-          "| foot acc. p99 / max(data, raw): offline | causal |")
-    print("|---|---|---|---|---|---|")
+          "| causal, given the contacts the model drew too | foot acc. p99 / max(data, raw): offline | causal | "
+          "causal, given them |")
+    print("|---|---|---|---|---|---|---|---|")
     for (label, path, t), (features, floor, truth) in kept.items():
         if t != models[label][0].temperature:
             continue
@@ -166,13 +181,20 @@ def section_2b(kept: dict, models: dict) -> None:
         fitted = contacts.fit_bones(raw)
         lock = contacts.FootLock(FPS, batch=len(fitted), planted_height_m=floor)
         streamed = np.stack([lock.step(fitted[:, frame]) for frame in range(fitted.shape[1])], axis=1)
-        offline = contacts.lock_feet(fitted, FPS, planted_height_m=floor)
+        drawn = DRAWN.get((label, path, t))
+        offline = contacts.lock(fitted, FPS, planted_height_m=floor, drawn=drawn).positions      # section 1's
+        if drawn is not None:                 # as the live character locks a contact head's motion
+            lock.reset()
+            given = np.stack([lock.step(fitted[:, frame], drawn=drawn[:, frame]) for frame in range(fitted.shape[1])],
+                             axis=1)
         reference = metrics.foot_skating(data, FPS, rest_height_m=floor)
         larger = max(metrics.foot_acceleration(data, FPS), metrics.foot_acceleration(raw, FPS))
-        skate = [metrics.foot_skating(p, FPS, rest_height_m=floor) / reference for p in (raw, offline, streamed)]
-        acceleration = [metrics.foot_acceleration(p, FPS) / larger for p in (offline, streamed)]
-        print(f"| {label}, {path}, τ = {t:g} | {skate[0]:.2f} | {skate[1]:.2f} | {skate[2]:.2f} "
-              f"| {acceleration[0]:.2f} | {acceleration[1]:.2f} |")
+        shown = (raw, offline, streamed) + (() if drawn is None else (given,))
+        skate = [metrics.foot_skating(p, FPS, rest_height_m=floor) / reference for p in shown]
+        acceleration = [metrics.foot_acceleration(p, FPS) / larger for p in shown[1:]]
+        with_drawn = ("—", "—") if drawn is None else (f"{skate[3]:.2f}", f"{acceleration[2]:.2f}")
+        print(f"| {label}, {path}, τ = {t:g} | {skate[0]:.2f} | {skate[1]:.2f} | {skate[2]:.2f} | {with_drawn[0]} "
+              f"| {acceleration[0]:.2f} | {acceleration[1]:.2f} | {with_drawn[1]} |")
 
 
 def section_3(models: dict, folder: str) -> None:

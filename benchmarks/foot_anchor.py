@@ -61,7 +61,7 @@ def worst_bone(positions: np.ndarray) -> tuple[str, float]:
 
 def header(label: str, model, last: str) -> None:
     """The model's test NLL, then the head of its feet table (``last``: the final column)."""
-    nll, _ = comparison._nll(model, experiments.held_out_windows(comparison.TEST_WINDOW, FPS))
+    nll, _ = comparison.held_out_nll(model, experiments.held_out_windows(comparison.TEST_WINDOW, FPS))
     print(f"\n### {label} (foot_anchor={model.config.foot_anchor}): test NLL {nll:.1f} bits/frame\n")
     print("| path, temperature | skating raw (cm/s) | finished (cm/s) | data's (cm/s) | raw / data | finished / data "
           f"| bone drift raw (%) | most-stretched bone: the joint it ends in, % | {last} |")

@@ -63,8 +63,12 @@ ENTRIES = (Entry("vae", "VAE", "Motegi 2018", control=False, prefix=False, tempe
                  stochastic=False),
            Entry("vae_lstm", "VAE-LSTM", "Habibie 2017", control=True, prefix=False, temperature=1.0),
            Entry("glow", "Glow", "Henter 2020 §3", control=True, prefix=False, temperature=0.5, window=80),
+           Entry("glow_contacts", "Glow (contacts)", "Henter 2020 §3, contact head", control=True, prefix=False,
+                 temperature=0.5, window=80),
            Entry("moglow", "MoGlow", "Henter 2020 §4", control=True, prefix=True, temperature=0.3),
            Entry("moglow_foot_anchor", "MoGlow (anchored)", "Henter 2020 §4, feet anchored", control=True, prefix=True,
+                 temperature=0.3),
+           Entry("moglow_contacts", "MoGlow (contacts)", "Henter 2020 §4, contact head", control=True, prefix=True,
                  temperature=0.3),
            Entry("dfn", "DFN", "Chen 2020", control=False, prefix=True, temperature=1.0))
 """The models compared, in the course's order. Temperatures are the notebooks': MoGlow 0.3
@@ -72,7 +76,11 @@ ENTRIES = (Entry("vae", "VAE", "Motegi 2018", control=False, prefix=False, tempe
 deterministic). "MoGlow (anchored)" is MoGlow trained with its ankles modelled relative to
 where they would be had they stayed planted, its toes and knees relative to the leg
 (``MoGlowConfig.foot_anchor``, ``leg_anchor``, ``anchor_conditioning``: an exact likelihood
-still), the shipped recipe otherwise."""
+still), the shipped recipe otherwise. "Glow (contacts)" is Glow's recipe with a contact head
+(``GlowConfig.contact_head``: the feet's contacts drawn first, then the pose given them;
+its test NLL is the joint one at the data's contacts, a bound on the pose's); "MoGlow
+(contacts)" the same for MoGlow, each frame's contacts drawn from its conditioning, so that
+they stream (``MoGlowConfig.contact_head``)."""
 
 
 def evaluation_windows(source: str = "synthetic", stride_s: float = 1.0) -> np.ndarray:
@@ -106,11 +114,12 @@ def load_models(entries=ENTRIES) -> dict[str, tuple[Entry, object]]:
 
 
 def respond(entry: Entry, model, control: np.ndarray, prefix: np.ndarray | None = None, n: int = 1,
-            seed: int = 0) -> np.ndarray:
+            seed: int = 0, whole: bool = False):
     """What ``model`` generates for ``control`` ``(frames, 3)`` or ``(n, frames, 3)`` and
     ``prefix`` ``(n, k, 66)`` (data units), reading only what it conditions on: features
-    ``(n, frames, 66)``. A model that draws whole windows (``entry.window``) is asked for
-    ``frames`` only when that is its window."""
+    ``(n, frames, 66)`` (``whole``: the whole :class:`~motionlab.models.base.Generated`, with
+    the contacts a contact head drew). A model that draws whole windows (``entry.window``) is
+    asked for ``frames`` only when that is its window."""
     control = np.asarray(control, dtype=np.float64)
     frames = control.shape[-2]
     if entry.window is not None and frames != entry.window:
@@ -124,7 +133,8 @@ def respond(entry: Entry, model, control: np.ndarray, prefix: np.ndarray | None 
         if prefix is None:
             raise ValueError(f"prefix: {entry.label} continues real frames; give (n, k, 66) of them")
         kwargs["prefix"] = prefix
-    return model.generate(**kwargs).features
+    generated = model.generate(**kwargs)
+    return generated if whole else generated.features
 
 
 SCORED_POSE = tuple(i for i in range(N_POSE) if i not in MoGlowConfig().constant_features)
@@ -132,8 +142,10 @@ SCORED_POSE = tuple(i for i in range(N_POSE) if i not in MoGlowConfig().constant
 ``x`` and ``z`` are always 0 and left out)."""
 
 
-def _nll(model, windows: np.ndarray) -> tuple[float, str]:
-    """Test NLL in bits per frame, data units, and what it is: ``"exact"`` (the flows),
+def held_out_nll(model, windows: np.ndarray) -> tuple[float, str]:
+    """Test NLL of held-out ``windows`` ``(n, frames, 66)`` (data units) in bits per frame,
+    data units, and what it is: ``"exact"`` (the flows), ``"bound, with contacts"`` (a Glow
+    with a contact head: its joint NLL of pose and contacts at the data's own contacts),
     ``"bound"`` (the VAE-LSTM's negative ELBO, on the same pose values given the control),
     ``"bound, conv features"`` (Motegi's VAE: its negative ELBO bounds its conv features,
     not the frames), or NaN and ``""`` (no likelihood)."""
@@ -142,7 +154,7 @@ def _nll(model, windows: np.ndarray) -> tuple[float, str]:
     normalised = torch.tensor(model.normalizer.normalize(windows), dtype=torch.float32)
     normalised[..., [i for i in range(N_POSE) if i not in SCORED_POSE]] = 0.0   # exactly 0
     if hasattr(model, "nll"):
-        return model.nll(normalised, model.normalizer)["bits/frame"], "exact"
+        return model.nll(normalised, model.normalizer)["bits/frame"], getattr(model, "nll_is", "exact")
     if hasattr(model, "conv_ae"):
         return model.nll_bound(normalised)["bits/frame"], "bound, conv features"
     if hasattr(model, "nll_bound"):
@@ -165,12 +177,13 @@ def table_rows(models: dict, windows: np.ndarray, seed: int = 0, finish: bool = 
     ``foot skating (cm/s)``, ``bone drift (%)`` (:func:`metrics.locomotion_report`, the
     data's planted foot heights), ``pose error 1 s (cm)`` and ``pose error 3 s (cm)``
     (root frame, :func:`metrics.errors_by_frame`; NaN for a model that sees neither control
-    nor prefix), ``test NLL (bits/frame)`` and ``test NLL is`` (what it is: see :func:`_nll`),
+    nor prefix), ``test NLL (bits/frame)`` and ``test NLL is`` (what it is: see :func:`held_out_nll`),
     ``parameters`` and ``training (min)`` of the shipped checkpoint, ``skating ratio``
     (:func:`metrics.skating_ratio`, GMD's) and ``foot acceleration (m/s²)`` (99th
     percentile). The data's own row comes first. With ``finish``, each model's row is
     followed by its finished row (label + :data:`FINISHED`): the same samples through
-    :func:`motionlab.contacts.finish` (bones, then feet locked; the same measures, and
+    :func:`motionlab.contacts.finish` (bones, then feet locked, a contact head's drawn
+    contacts held as well as the detected ones; the same measures, and
     ``out of reach``: the share of contacts the lock let go for reach); both then have
     ``planted speed (cm/s)`` (:func:`motionlab.contacts.planted_speed` over the contacts
     detected on the raw samples), and so has the data's row (its own contacts)."""
@@ -191,18 +204,20 @@ def table_rows(models: dict, windows: np.ndarray, seed: int = 0, finish: bool = 
         data_positions = to_positions(judged, FPS)
         rows["data"]["planted speed (cm/s)"] = 100 * contacts.planted_speed(
             data_positions, FPS, contacts.detect(data_positions, FPS, rest))
-    for label, out in held_out_samples(models, windows, seed).items():
+    drawn = {}
+    for label, out in held_out_samples(models, windows, seed, drawn).items():
         entry, model = models[label]
         pose_error = metrics.errors_by_frame(out, judged, FPS)[0]
         seen = entry.control or entry.prefix
         rows[label] = {**row(out),
                        "pose error 1 s (cm)": 100 * pose_error[int(FPS) - 1] if seen else float("nan"),
                        "pose error 3 s (cm)": 100 * pose_error[int(3 * FPS) - 1] if seen else float("nan"),
-                       **dict(zip(("test NLL (bits/frame)", "test NLL is"), _nll(model, windows))),
+                       **dict(zip(("test NLL (bits/frame)", "test NLL is"), held_out_nll(model, windows))),
                        "parameters": float(weights(model)),
                        "training (min)": _training_minutes(model)}
         if finish:
-            done, positions = contacts.finish(out, FPS, planted_height_m=rest), to_positions(out, FPS)
+            done = contacts.finish(out, FPS, planted_height_m=rest, drawn=drawn.get(label))
+            positions = to_positions(out, FPS)
             labels = contacts.detect(positions, FPS, rest)
             rows[label]["planted speed (cm/s)"] = 100 * contacts.planted_speed(positions, FPS, labels)
             rows[label + FINISHED] = {**row(done.features), "out of reach": done.lock.out_of_reach,
@@ -215,20 +230,26 @@ def weights(model) -> int:
     return sum(w.numel() for m in _modules(model) for w in m.parameters())
 
 
-def held_out_samples(models: dict, windows: np.ndarray, seed: int = 0) -> dict[str, np.ndarray]:
+def held_out_samples(models: dict, windows: np.ndarray, seed: int = 0, drawn: dict | None = None) -> dict[str, np.ndarray]:
     """One sample per held-out window ``(n, TEST_WINDOW, 66)`` from every model, as
     :func:`table_rows` judges them: ``{label: features (n, TEST_WINDOW - PREFIX_FRAMES, 66)}``,
     the frames after the prefix (a model with a prefix continues the window's first
     :data:`PREFIX_FRAMES` frames; the others draw the whole window, given its control if
-    they take one)."""
+    they take one). Given a dict ``drawn``, the contacts a contact head drew for the same
+    frames go into it, by label."""
     windows = np.asarray(windows, dtype=np.float64)
     control, prefix = windows[..., N_POSE:], windows[:, :PREFIX_FRAMES]
     samples = {}
     for label, (entry, model) in models.items():
         if entry.prefix:                                    # it continues the prefix: generate the rest
-            samples[label] = respond(entry, model, control[:, PREFIX_FRAMES:], prefix, n=len(windows), seed=seed)
+            out = respond(entry, model, control[:, PREFIX_FRAMES:], prefix, n=len(windows), seed=seed, whole=True)
+            judged = slice(None)
         else:                                               # whole windows: judge the same frames
-            samples[label] = respond(entry, model, control, n=len(windows), seed=seed)[:, PREFIX_FRAMES:]
+            out = respond(entry, model, control, n=len(windows), seed=seed, whole=True)
+            judged = slice(PREFIX_FRAMES, None)
+        samples[label] = out.features[:, judged]
+        if drawn is not None and out.contacts is not None:
+            drawn[label] = out.contacts[:, judged]
     return samples
 
 

@@ -248,16 +248,27 @@ class FootLock:
         contact = np.asarray(contacts)
         return _contact_array(contact[None] if single and contact.ndim == 1 else contact, (self.batch, 4))
 
-    def step(self, frame, contacts=None, approach=None) -> np.ndarray:
+    def step(self, frame, contacts=None, approach=None, drawn=None) -> np.ndarray:
         """One frame ``(batch, 21, 3)`` (or ``(21, 3)`` when ``batch`` is 1) in, the same
         with the feet locked out. ``contacts`` ``(batch, 4)`` booleans (:data:`FEET` order)
-        or None to detect them. ``approach`` ``(batch, 4, 2)`` or None: a horizontal shift
-        (x, z) for the joints of feet the lock does not hold (:func:`approach_shift`, which
-        needs later frames: the offline lock's); None: the lock's own guess
-        (:meth:`landing_guess`)."""
+        or None to detect them. ``drawn``: with ``contacts`` None, the model's own contacts
+        for this frame, ``(batch, 4)`` booleans (a contact head's, ``MoGlowStream.contacts``):
+        a foot joint is then in contact where the detector *or* the model says it is, so that
+        a foot the model planted is held from the frame it lands. ``approach`` ``(batch, 4,
+        2)`` or None: a horizontal shift (x, z) for the joints of feet the lock does not hold
+        (:func:`approach_shift`, which needs later frames: the offline lock's); None: the
+        lock's own guess (:meth:`landing_guess`)."""
         single = np.ndim(frame) == 2
         frame = checks.array(frame[None] if single else frame, "frame", (self.batch, LOCOMOTION.n_joints, 3))
+        if contacts is not None and drawn is not None:
+            raise ValueError("drawn: give the contacts to hold (contacts) or the model's own to add to the "
+                             "detector's (drawn), not both")
         contact = self._detect(frame) if contacts is None else self._contacts(contacts, single)
+        if drawn is not None:
+            try:
+                contact = contact | self._contacts(drawn, single)
+            except ValueError as error:
+                raise ValueError(f"drawn: {str(error).split(': ', 1)[1]}") from None
         in_contact = contact.reshape(-1, 2, 2)                                # (b, feet, ankle/toe)
         self.blocked &= in_contact.any(-1)                                    # a new contact may lock again
         active = in_contact.any(-1) & ~self.blocked                           # (b, feet)
@@ -437,9 +448,12 @@ def approach_shift(positions, contacts, fps: float, planted_height_m, approach_s
 
 
 def lock(positions, fps: float, contacts=None, planted_height_m=None, blend_s: float = BLEND_S,
-         approach_s: float = APPROACH_S) -> Locked:
+         approach_s: float = APPROACH_S, drawn=None) -> Locked:
     """:func:`lock_feet`, and what it did (:class:`Locked`). ``approach_s`` (0: none): how
-    long before landing a low foot is slowed into its spot (:func:`approach_shift`)."""
+    long before landing a low foot is slowed into its spot (:func:`approach_shift`).
+    ``drawn``: with ``contacts`` None, the contacts a model with a contact head drew
+    (``Generated.contacts``, ``(..., frames, 4)`` booleans), added to the ones detected: a
+    foot joint is held where the detector *or* the model says it is down."""
     positions = _positions(positions)
     fps = checks.rate(fps, "fps")
     frames = positions.shape[-3]
@@ -449,8 +463,16 @@ def lock(positions, fps: float, contacts=None, planted_height_m=None, blend_s: f
                          f"({int(np.ceil(blend * fps))} frames at {fps:g} fps) and at least 2")
     floor = planted_heights(positions) if planted_height_m is None else \
         _per_foot_joint(planted_height_m, "planted_height_m", positive=False)
+    if contacts is not None and drawn is not None:
+        raise ValueError("drawn: give the contacts to hold (contacts) or the model's own to add to the "
+                         "detector's (drawn), not both")
     contacts = detect(positions, fps, floor) if contacts is None else \
         _contact_array(contacts, positions.shape[:-2] + (4,))
+    if drawn is not None:
+        try:
+            contacts = contacts | _contact_array(drawn, positions.shape[:-2] + (4,))
+        except ValueError as error:
+            raise ValueError(f"drawn: {str(error).split(': ', 1)[1]}") from None
     flat = positions.reshape(-1, frames, LOCOMOTION.n_joints, 3)
     flat_contacts = contacts.reshape(-1, frames, 4)
     approach = approach_shift(flat, flat_contacts, fps, floor, approach_s)
@@ -543,7 +565,7 @@ class Finished:
 
 
 def finish(features, fps: float, planted_height_m=None, bone_lengths=None, fit: bool = True,
-           lock_feet: bool = True) -> Finished:
+           lock_feet: bool = True, drawn=None) -> Finished:
     """A model's features ``(..., frames, 66)`` (data units) made into a character: world
     positions (:func:`representation.to_positions`), every bone back to one length
     (:func:`fit_bones`, feet kept where they were), then the feet locked (:func:`lock`,
@@ -554,13 +576,16 @@ def finish(features, fps: float, planted_height_m=None, bone_lengths=None, fit: 
     (:func:`body_lengths`); default each bone's median in the sample itself. The median is
     too long for a model whose bones keep growing as it goes (an anchored MoGlow's shins),
     but a sample's feet were placed by its own legs: on the data's, a lock holding them
-    needs legs of another length, and its planted feet move more (docs/feet.md)."""
+    needs legs of another length, and its planted feet move more (docs/feet.md).
+
+    ``drawn``: the contacts a model with a contact head drew (``Generated.contacts``), held
+    as well as the detected ones (:func:`lock`)."""
     features = checks.array(features, "features", (..., "frames", 3 * LOCOMOTION.n_joints + 3))
     fps = checks.rate(fps, "fps")
     positions = to_positions(features, fps)
     if fit:
         positions = fit_bones(positions, bone_lengths)
-    locked = lock(positions, fps, planted_height_m=planted_height_m) if lock_feet else None
+    locked = lock(positions, fps, planted_height_m=planted_height_m, drawn=drawn) if lock_feet else None
     positions = locked.positions if locked is not None else positions
     return Finished(along_path(positions, features[..., -3:], fps), positions, locked)
 

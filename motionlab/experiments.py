@@ -242,3 +242,23 @@ def temperature_sweep(model, windows: np.ndarray, temperatures=(0.0, 0.25, 0.5, 
     control = windows[..., POSE.stop:]
     return {float(t): claims.moves_like_data(model.generate(control, n=len(windows), temperature=t, seed=seed).features,
                                              windows, model.fps) for t in temperatures}
+
+
+def finished_feet(model, windows: np.ndarray, temperature: float, seed: int = 0) -> dict[str, float]:
+    """Feet raw and finished: one sample per window of ``windows`` ``(n, frames, 66)`` (data
+    units), given that window's control (as :func:`temperature_sweep` draws them), made into a
+    character by :func:`motionlab.contacts.finish` (bones fitted, feet locked, the windows'
+    planted heights; a contact head's drawn contacts held as well as the detected ones). Returns the foot skating (:func:`metrics.foot_skating`, cm/s) of the
+    ``"data"``, the ``"raw"`` samples and the ``"finished"`` ones, and the share of contacts
+    the lock let go for reach (``"out of reach"``)."""
+    from . import contacts
+    windows = np.asarray(windows, dtype=np.float64)
+    fps = model.fps
+    data_positions = to_positions(windows, fps)
+    floor = metrics.foot_rest_heights(data_positions)
+    generated = model.generate(windows[..., POSE.stop:], n=len(windows), temperature=temperature, seed=seed)
+    samples = generated.features
+    done = contacts.finish(samples, fps, planted_height_m=floor, drawn=getattr(generated, "contacts", None))
+    skating = {name: 100 * metrics.foot_skating(p, fps, rest_height_m=floor)
+               for name, p in (("data", data_positions), ("raw", to_positions(samples, fps)), ("finished", done.positions))}
+    return {**skating, "out of reach": done.lock.out_of_reach}

@@ -12,7 +12,8 @@ application, in three layers that each run without a browser:
 * :class:`LiveCharacter` feeds each control frame to a :class:`MoGlowStream`, places the
   pose in the world (the root integrated from the control, as
   :func:`~motionlab.representation.to_positions` does) and, optionally, locks the feet with
-  the causal :class:`~motionlab.contacts.FootLock`. :meth:`LiveCharacter.tick` is one
+  the causal :class:`~motionlab.contacts.FootLock` (for a model with a contact head, given
+  the contacts it drew as well as the ones it detects). :meth:`LiveCharacter.tick` is one
   frame; :func:`record` runs a scripted steering sequence through it.
 * :class:`Loop` calls ``tick`` at the model's frame rate on a background thread (other
   cells keep running), measures what it delivers, and stops cleanly.
@@ -50,10 +51,13 @@ names): notebook 06's panel. The Markov variants of notebook 06 generate with
 ``MoGlow.sample`` instead, whose conditioning window is rebuilt every frame; they are left
 out of the live panel."""
 
-CONTROLLABLE = {"MoGlow": "moglow", "MoGlow (anchored)": "moglow_foot_anchor", "LSTM-3LR": "lstm_control"}
+CONTROLLABLE = {"MoGlow": "moglow", "MoGlow (anchored)": "moglow_foot_anchor", "MoGlow (contacts)": "moglow_contacts",
+                "LSTM-3LR": "lstm_control"}
 """Notebook 08's panel: every shipped model that follows a control one frame at a time
 (``model.stream``). Habibie's VAE-LSTM also follows a control, but its convolutional
-control encoder and canvas decoder read a whole window at once, so it cannot stream."""
+control encoder and canvas decoder read a whole window at once, so it cannot stream. The
+MoGlow with a contact head draws each frame's contacts, and its character's lock holds them
+as well as the ones it detects."""
 
 CONTROL_RANGE = np.array([[min(a[2][0] for a in synthetic.ACTIVITIES), max(a[2][1] for a in synthetic.ACTIVITIES)],
                           [-max(a[3][1] for a in synthetic.ACTIVITIES), max(a[3][1] for a in synthetic.ACTIVITIES)],
@@ -229,7 +233,8 @@ class LiveCharacter:
         pose = features[:N_POSE].reshape(LOCOMOTION.n_joints, 3)
         x, z, heading = self.root
         positions = pose @ y_rotation(heading).T + np.array([x, 0.0, z])
-        locked = self.lock.step(positions)
+        drawn = getattr(self.stream, "contacts", None)           # a contact head's: held from the frame they land
+        locked = self.lock.step(positions, drawn=None if drawn is None else drawn[0].cpu().numpy())
         contact = self.lock.contact[0].copy()
         if self.lock_feet:
             positions = locked

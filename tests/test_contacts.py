@@ -268,6 +268,56 @@ def test_the_causal_lock_needs_no_future_and_equals_the_offline_one_given_the_sa
     assert skating(first[None], floor) < 0.6 * skating(slides[:1], floor)
 
 
+def test_the_causal_lock_adds_a_model_s_drawn_contacts_to_the_ones_it_detects(walking):
+    slides = sliding(walking)
+    floor = contacts.planted_heights(slides)
+    lock = contacts.FootLock(FPS, batch=2, planted_height_m=floor)
+    detected = []
+    for t in range(slides.shape[1]):
+        lock.step(slides[:, t])
+        detected.append(lock.contact.copy())
+    detected = np.stack(detected, 1)                                      # (2, frames, 4)
+    # nothing drawn: the detector's contacts, the same motion out
+    lock.reset()
+    none_drawn = np.zeros(4 * 2, dtype=bool).reshape(2, 4)
+    plain = contacts.FootLock(FPS, batch=2, planted_height_m=floor)
+    for t in range(slides.shape[1]):
+        np.testing.assert_array_equal(lock.step(slides[:, t], drawn=none_drawn), plain.step(slides[:, t]))
+    # a drawn contact holds a foot the detector lets go: every frame of the left toe drawn down
+    lock.reset()
+    toe = np.zeros((2, 4), dtype=bool)
+    toe[:, 1] = True
+    held = []
+    for t in range(slides.shape[1]):
+        lock.step(slides[:, t], drawn=toe)
+        held.append(lock.contact.copy())
+    held = np.stack(held, 1)
+    assert held[..., 1].all() and (held[..., [0, 2, 3]] == detected[..., [0, 2, 3]]).all()
+    with pytest.raises(ValueError, match="drawn: expected booleans"):
+        lock.step(slides[:, 0], drawn=np.ones((2, 3), dtype=bool))
+    with pytest.raises(ValueError, match="drawn: give the contacts"):
+        lock.step(slides[:, 0], contacts=toe, drawn=toe)
+
+
+def test_the_offline_lock_and_finish_hold_a_model_s_drawn_contacts_too(walking):
+    slides = sliding(walking)
+    floor = contacts.planted_heights(slides)
+    drawn = np.zeros(slides.shape[:2] + (4,), dtype=bool)
+    drawn[:, 20:40, 3] = True                                            # the right toe drawn down for 1 s
+    detected = contacts.detect(slides, FPS, floor)
+    given = contacts.lock(slides, FPS, planted_height_m=floor, drawn=drawn)
+    np.testing.assert_array_equal(given.contacts, detected | drawn)
+    np.testing.assert_allclose(given.positions,
+                               contacts.lock(slides, FPS, detected | drawn, planted_height_m=floor).positions)
+    features = np.stack([rep.to_features(p, FPS) for p in slides])
+    done = contacts.finish(features, FPS, planted_height_m=floor, drawn=drawn)
+    assert done.lock.contacts[:, 20:40, 3].all()
+    with pytest.raises(ValueError, match="drawn: expected booleans"):
+        contacts.lock(slides, FPS, drawn=drawn[..., :3])
+    with pytest.raises(ValueError, match="drawn: give the contacts"):
+        contacts.lock(slides, FPS, contacts=detected, drawn=drawn)
+
+
 def test_the_causal_lock_guesses_where_a_low_foot_coming_down_lands():
     """FootLock's landing step from two frames: an ankle 3 cm above its planted height that
     came down 1.5 cm lands in 2 frames, within APPROACH_S at 20 fps; it is drawn ahead along

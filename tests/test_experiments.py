@@ -83,6 +83,29 @@ def test_temperature_sweep_judges_the_shipped_glow_at_each_temperature():
     assert hot["foot skating (m/s), samples"] > cold["foot skating (m/s), samples"]  # noise costs the feet
 
 
+class _Replay:
+    """A "model" that returns the windows it was made with, whatever it is asked."""
+    fps = 20.0
+
+    def __init__(self, windows):
+        self.windows = windows
+
+    def generate(self, control, n, temperature, seed):
+        from motionlab.models.base import Generated
+        return Generated(self.windows[:n], None, self.fps)
+
+
+def test_finished_feet_measures_raw_and_locked_sliding_against_the_data(held_out):
+    windows = held_out[:4]
+    same = experiments.finished_feet(_Replay(windows), windows, temperature=0.5)
+    assert same["raw"] == pytest.approx(same["data"])                      # the data itself: 1x raw
+    assert same["finished"] <= same["raw"] + 0.05 and 0 <= same["out of reach"] <= 1
+    frozen = windows.copy()
+    frozen[..., POSE] = windows[:, :1, POSE]                             # one pose carried along the path
+    glide = experiments.finished_feet(_Replay(frozen), windows, temperature=0.5)
+    assert glide["raw"] > 5 * glide["data"]                               # its feet glide with the body
+
+
 def test_own_futures_cut_held_out_clips_where_they_move_at_the_speed_and_keep_what_came_next():
     prefixes, futures = experiments.own_futures((2.8, 4.5), 10, 4.0, 20.0, clips=6, clip_s=20.0)
     assert prefixes.shape[1:] == (10, 66) and futures.shape[1:] == (81, 66) and len(prefixes) == len(futures) >= 3

@@ -40,11 +40,12 @@ MAKERS = {
     "lstm_given_control": lambda p: MotionLSTM(LSTMConfig(hidden=8, layers=1, control="given")),
     "glow": lambda p: Glow(GlowConfig(window=16, levels=2, steps=2, hidden=8)),
     "glow_unconditional": lambda p: Glow(GlowConfig(window=16, levels=2, steps=2, hidden=8, conditional=False)),
+    "glow_contacts": lambda p: Glow(GlowConfig(window=16, levels=2, steps=2, hidden=8, contact_head=True)),
     "moglow": lambda p: MoGlow(MoGlowConfig(window=16, history=4, steps=2, hidden=8)),
     "moglow_markov": lambda p: MoGlow(MoGlowConfig(window=16, history=4, steps=2, hidden=8, recurrent=False)),
     "dfn": lambda p: DFN(DFNConfig()),
 }
-STOCHASTIC = {"vae", "vae_lstm", "glow", "glow_unconditional", "moglow", "moglow_markov", "dfn"}
+STOCHASTIC = {"vae", "vae_lstm", "glow", "glow_unconditional", "glow_contacts", "moglow", "moglow_markov", "dfn"}
 IGNORE_CONTROL = {"vae", "glow_unconditional", "dfn"}     # no control input (the LSTM-3LR feeds a given one back)
 
 

@@ -131,7 +131,7 @@ LAYERS = {
     "readers": {"asf", "amc", "asfamc", "bvh_file", "bvh", "download_checks", "download_http", "download"},
     "data sets": {"data"},
     "models": {"models", "models.base", "models.flows", "models.conv_ae", "models.vae", "models.skeleton_output",
-               "models.vae_lstm", "models.lstm", "models.anchor", "models.glow", "models.moglow", "models.dfn_parts",
+               "models.vae_lstm", "models.lstm", "models.anchor", "models.contact_head", "models.glow", "models.moglow", "models.dfn_parts",
                "models.dfn", "engine", "engine.recurrent", "engine.stream"},
     "training": {"training", "training.config", "training.schedule", "training.parallel", "training.state",
                  "training.loop", "checkpoints", "train", "pretrained", "recipes"},

@@ -14,6 +14,7 @@ import numpy as np
 import torch
 
 from .. import cpu
+from ..models.contact_head import labels_of
 from ..models.flows import _LOG_SIGMOID_SHIFT, SCALE_SHIFT
 
 @dataclass(eq=False)
@@ -80,7 +81,9 @@ class MoGlowStream:
     frames then differ from the float32 ones by about 1e-3 to 1e-2 in normalised units.
 
     A ``foot_anchor`` model's stream adds each frame's ``m`` (:meth:`MoGlow.anchor`, from
-    the frame before and its control) to the flow's output, as :meth:`MoGlow.sample` does.
+    the frame before and its control) to the flow's output, as :meth:`MoGlow.sample` does;
+    a ``contact_head`` model's draws each frame's contacts first (:meth:`MoGlow.draw_contacts`)
+    and keeps the last frame's as ``stream.contacts`` (for a foot lock, ``FootLock.step``).
 
     >>> stream = model.stream(history)            # (batch, τ, 66) normalised features
     >>> frame = stream.step(control)              # (batch, 3) -> (batch, 66)
@@ -122,6 +125,8 @@ class MoGlowStream:
         self.frames = 0
         self._history_scale = model.history_scale                        # fixed for the stream's life
         self._anchor_units = model.anchor_units() if model.config.foot_anchor else None
+        self._contacts = model.contact_head.start(self.batch, device) if model.contact_head is not None else None
+        self.contacts = None        # with a contact head: the last frame's drawn contacts (batch, 4), FEET order
         # How one frame's LSTM products run on a CPU (measured over paper-size layers, see
         # benchmarks/moglow_speed.py). One stream only reads weights, and the kernels differ:
         # * bfloat16, native arithmetic (AVX512-BF16, AMX) for both kernel families
@@ -290,7 +295,11 @@ class MoGlowStream:
                 raise ValueError(f"noise: expected {shape}, got {tuple(noise.shape)}")
             controls = torch.cat([self.controls, control[:, None]], dim=1)       # c_{t-τ .. t}
             cond = model.frame_conditioning(self._history_scale * self.poses, controls, self.poses[:, -1],
-                                            self._anchor_units)[:, 0]
+                                            self._anchor_units)
+            cond, self._contacts = model.draw_contacts(cond, self._contacts, self.generator)   # a contact head's
+            if self._contacts is not None:
+                self.contacts = labels_of(self._contacts[0]).bool()       # this frame's, (batch, 4)
+            cond = cond[:, 0]
             # the conditioning's part of every coupling's first-layer gates, in one product
             # (one per coupling for several streams on a CPU)
             cond = cond.to(self.weights)

@@ -57,11 +57,15 @@ class Generated:
         positions: ``(n, frames, 21, 3)`` world joint positions (m), each sample integrated
             from the origin facing ``+z`` (:func:`motionlab.representation.to_positions`).
         fps: frames per second.
+        contacts: the foot contacts a model with a contact head drew for each frame, ``(n,
+            frames, 4)`` booleans (ankle and toe of each foot, :data:`motionlab.skeleton.FEET`
+            order); ``None`` for the other models.
     """
 
     features: np.ndarray
     positions: np.ndarray
     fps: float
+    contacts: np.ndarray | None = None
 
     @property
     def seconds(self) -> float:
@@ -231,11 +235,12 @@ class GenerativeModel:
         """:func:`bone_term` of this model's reconstruction against its data."""
         return bone_term(self, prediction, target)
 
-    def _result(self, normalised: torch.Tensor) -> Generated:
+    def _result(self, normalised: torch.Tensor, contacts: torch.Tensor | None = None) -> Generated:
         """Normalised features ``(n, frames, 66)`` -> :class:`Generated` in the data's units."""
-        return self._result_in_data_units(self._normalizer().denormalize(normalised.detach().cpu().double().numpy()))
+        return self._result_in_data_units(self._normalizer().denormalize(normalised.detach().cpu().double().numpy()),
+                                          contacts)
 
-    def _result_in_data_units(self, features) -> Generated:
+    def _result_in_data_units(self, features, contacts: torch.Tensor | None = None) -> Generated:
         features = np.asarray(features, dtype=np.float64)
         bad = ~np.isfinite(features).reshape(len(features), -1).all(axis=1)
         if bad.any():
@@ -247,7 +252,8 @@ class GenerativeModel:
                              "not finite (NaN or infinite); "
                              + ("a flow's inverse can overflow for latents far from the centre: try a lower "
                                 "temperature" if flow else "were its weights trained to a finite loss?"))
-        return Generated(features, to_positions(features, self.fps), float(self.fps))
+        drawn = None if contacts is None else torch.as_tensor(contacts).cpu().numpy() > 0.5
+        return Generated(features, to_positions(features, self.fps), float(self.fps), drawn)
 
     @property
     def fps(self) -> float:

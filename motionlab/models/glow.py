@@ -35,6 +35,14 @@ previous frame is part of the window the flow models, not conditioning: the map 
 triangular over time with ones on its diagonal, so its log-determinant is 0 and the
 likelihood stays exact; sampling inverts it frame by frame. With ``leg_anchor`` the toes and
 knees are modelled relative to their ankles and hips too.
+
+**A contact head** (``contact_head``, off by default; :mod:`motionlab.models.contact_head`).
+The model becomes ``p(x, c | u) = p(c | u) p(x | c, u)``: a small autoregressive model of
+the window's foot contacts ``c`` given the control, and the flow given both, its coupling
+networks seeing the labels beside the control. Training labels come from the data
+(:func:`motionlab.contacts.contact_labels`); sampling draws the contacts first, then the
+pose. Both parts are exact, and at the data's own labels the joint likelihood bounds the
+pose's from below (``p(x | u) ≥ p(x, c(x) | u)``).
 """
 from __future__ import annotations
 
@@ -48,6 +56,8 @@ from .. import checks
 from .base import Generated, check_tensor, generator_for, per_frame_nll
 from . import anchor
 from .anchor import FootAnchor
+from . import contact_head
+from .contact_head import N_CONTACTS, ContactHead, DataContacts
 from .flows import ConvCouplingNet, GaussianPrior, MotionFlow, MultiScaleFlow, henter_schedule
 from .modelcard import ModelCard
 
@@ -75,6 +85,9 @@ class GlowConfig:
         leg_anchor: with ``foot_anchor``, each toe's ``x, z`` modelled less its ankle's and
             each knee less the midpoint of its hip and ankle, in the same frame, every frame
             but the first (:mod:`motionlab.models.anchor`).
+        contact_head: model the feet's contacts beside the pose, ``p(c | u) p(x | c, u)``
+            (:mod:`motionlab.models.contact_head`); needs ``conditional``, the locomotion
+            features and, to train, the model's normaliser.
     """
 
     n_features: int = 66
@@ -89,6 +102,7 @@ class GlowConfig:
     constant_features: tuple[int, ...] = (0, 2)
     foot_anchor: bool = False
     leg_anchor: bool = False
+    contact_head: bool = False
 
     def __post_init__(self):
         checks.config(self)
@@ -113,6 +127,7 @@ class GlowConfig:
             raise ValueError("foot_anchor: the shift is a function of the control; needs conditional=True")
         anchor.check_leg_config(self)
         anchor.check_config(self)
+        contact_head.check_config(self)
 
     @classmethod
     def paper(cls, **changes) -> "GlowConfig":
@@ -121,7 +136,7 @@ class GlowConfig:
         return replace(cls(levels=4, steps=32, hidden=512, window=80, fps=20.0, conditional=True), **changes)
 
 
-class Glow(FootAnchor, MotionFlow):
+class Glow(DataContacts, FootAnchor, MotionFlow):
     """The fixed-length sequence Glow of §3.3-3.4.
 
     Batches are normalised feature windows ``(batch, frames, n_features)``, ``frames`` a
@@ -136,11 +151,14 @@ class Glow(FootAnchor, MotionFlow):
         self.config = config
         self._set_layout(config, config.n_features - (config.n_control if config.conditional else 0))
         self.follows_control = config.conditional
+        cond_channels = (config.n_control + N_CONTACTS * config.contact_head) if config.conditional else 0
         self.flow = MultiScaleFlow(self.n_modelled, config.levels, config.steps,
                                    partial(ConvCouplingNet, hidden=config.hidden, width=config.width),
-                                   cond_channels=config.n_control if config.conditional else 0)
+                                   cond_channels=cond_channels)
         self.prior = GaussianPrior()
         self._init_foot_anchor(config)
+        self.contact_head = ContactHead(config.n_control, config.hidden) if config.contact_head else None
+        self.nll_is = "bound, with contacts" if config.contact_head else "exact"
 
     # -- data in and out -----------------------------------------------------------------
 
@@ -160,30 +178,43 @@ class Glow(FootAnchor, MotionFlow):
 
     # -- likelihood (eq. 9) --------------------------------------------------------------
 
-    def encode(self, batch: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        """``(z, logdet)``: the latent ``(batch, frames * n_modelled)`` and ``Σ ln|det J|`` ``(batch,)``."""
+    def _encode(self, batch: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        """``(z, logdet, ln p(c | u))``: the last is 0 without a contact head."""
         x, cond = self.split_features(batch)
         if self.config.foot_anchor:          # triangular, ones on the diagonal: log-determinant 0
             x = self.anchor_window(x, cond, -1.0)
-        return self.flow(x, cond)
+        if self.contact_head is None:
+            return (*self.flow(x, cond), x.new_zeros(x.shape[0]))
+        labels = self.data_contacts(batch)
+        return (*self.flow(x, self.with_contacts(cond, labels)), self.contact_head.log_prob(labels, cond))
+
+    def encode(self, batch: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """``(z, logdet)``: the latent ``(batch, frames * n_modelled)`` and ``Σ ln|det J|`` ``(batch,)``
+        (with a contact head: given the data's own contacts)."""
+        return self._encode(batch)[:2]
 
     def log_likelihood(self, batch: torch.Tensor) -> torch.Tensor:
         """``ln p(x | c)`` (conditional) or ``ln p(x)`` of each window, nats, normalised
-        units, ``(batch,)`` (eq. 9)."""
-        z, logdet = self.encode(batch)
-        return self.prior.log_prob(z) + logdet
+        units, ``(batch,)`` (eq. 9). With a contact head, ``ln p(x, c(x) | u)`` at the data's
+        own contacts: a lower bound on ``ln p(x | u)``."""
+        z, logdet, contact = self._encode(batch)
+        return self.prior.log_prob(z) + logdet + contact
 
     def loss(self, batch: torch.Tensor) -> dict[str, torch.Tensor]:
         """Negative log-likelihood in nats per modelled value (``"loss"``), and per frame in
         bits (``"bits_per_frame"``); with eq. 9's two parts, the prior term and the
-        log-determinant, in nats per value. All in normalised units."""
-        z, logdet = self.encode(batch)
+        log-determinant, in nats per value. All in normalised units. With a contact head the
+        loss is the joint one, and ``"contact_bits_per_frame"`` is the contacts' share."""
+        z, logdet, contact = self._encode(batch)
         log_prior = self.prior.log_prob(z)
         frames = batch.shape[1]
         values = frames * self.n_modelled
-        nll = -(log_prior + logdet).mean()
-        return {"loss": nll / values, "bits_per_frame": nll / frames / math.log(2),
-                "log_prior": log_prior.mean() / values, "logdet": logdet.mean() / values}
+        nll = -(log_prior + logdet + contact).mean()
+        out = {"loss": nll / values, "bits_per_frame": nll / frames / math.log(2),
+               "log_prior": log_prior.mean() / values, "logdet": logdet.mean() / values}
+        if self.contact_head is not None:
+            out["contact_bits_per_frame"] = -contact.mean() / frames / math.log(2)
+        return out
 
     @torch.no_grad()
     def nll(self, windows: torch.Tensor, normalizer=None, batch_size: int = 64) -> dict[str, float]:
@@ -192,7 +223,8 @@ class Glow(FootAnchor, MotionFlow):
         Returns ``"nats/frame"`` and ``"bits/frame"``: in normalised units, or, given the
         :class:`motionlab.data.Normalizer` of the data, in the data's units (metres, m/s,
         rad/s), adding ``Σ_d ln σ_d`` over the modelled features (the Jacobian of the
-        normalisation) to every frame's NLL.
+        normalisation) to every frame's NLL. With a contact head it is the joint NLL at the
+        data's own contacts, an upper bound on the pose's (``nll_is``).
         """
         total = torch.cat([-self.log_likelihood(chunk) for chunk in torch.split(windows, batch_size)])
         return per_frame_nll(float(total.mean()) / windows.shape[1], normalizer, self.modelled)
@@ -200,18 +232,35 @@ class Glow(FootAnchor, MotionFlow):
     # -- sampling ------------------------------------------------------------------------
 
     @torch.no_grad()
-    def decode(self, z: torch.Tensor, control: torch.Tensor | None = None) -> torch.Tensor:
+    def decode(self, z: torch.Tensor, control: torch.Tensor | None = None, contacts: torch.Tensor | None = None,
+               generator: torch.Generator | None = None) -> torch.Tensor:
         """Latents ``(n, frames * n_modelled)`` (and the control ``(n, frames, n_control)``)
-        to normalised feature windows ``(n, frames, n_features)``."""
+        to normalised feature windows ``(n, frames, n_features)``. With a contact head, the
+        pose is decoded given ``contacts`` ``(n, frames, 4)`` (0/1), drawn from the head
+        (with ``generator``) when not given."""
         if z.ndim != 2 or z.shape[1] % self.n_modelled:
             raise ValueError(f"z: expected (n, frames * {self.n_modelled}), got {tuple(z.shape)}")
         frames = z.shape[1] // self.n_modelled
         control = self._check_control(control, z.shape[0], frames)
-        return self.join_features(self._inverse(z, control), control)
+        return self.join_features(self._inverse(z, control, self._contacts(contacts, control, generator)), control)
 
-    def _inverse(self, z: torch.Tensor, control: torch.Tensor | None) -> torch.Tensor:
+    def _contacts(self, contacts, control, generator) -> torch.Tensor | None:
+        """The contacts a contact head decodes with: given ``(n, frames, 4)`` 0/1, or drawn."""
+        if self.contact_head is None:
+            if contacts is not None:
+                raise ValueError("contacts: this Glow has no contact head (contact_head=False)")
+            return None
+        if contacts is None:
+            return self.contact_head.sample(control, generator)
+        contacts = torch.as_tensor(contacts, dtype=torch.float32, device=control.device)
+        if contacts.shape != (*control.shape[:2], N_CONTACTS) or not ((contacts == 0) | (contacts == 1)).all():
+            raise ValueError(f"contacts: expected 0/1 labels {(*control.shape[:2], N_CONTACTS)} (ankles and toes), "
+                             f"got {tuple(contacts.shape)}")
+        return contacts
+
+    def _inverse(self, z: torch.Tensor, control: torch.Tensor | None, contacts: torch.Tensor | None = None) -> torch.Tensor:
         """The modelled values of latents ``z``: the flow inverted, then the anchoring."""
-        x = self.flow.inverse(z, control)
+        x = self.flow.inverse(z, self.with_contacts(control, contacts))
         return self.anchor_window(x, control, 1.0) if self.config.foot_anchor else x
 
     def _check_control(self, control, n: int, frames: int | None):
@@ -231,7 +280,8 @@ class Glow(FootAnchor, MotionFlow):
 
     @torch.no_grad()
     def sample(self, n: int, control: torch.Tensor | None = None, frames: int | None = None,
-               temperature: float = 1.0, generator: torch.Generator | None = None) -> torch.Tensor:
+               temperature: float = 1.0, generator: torch.Generator | None = None,
+               contacts: torch.Tensor | None = None) -> torch.Tensor:
         """Draw ``n`` windows ``(n, frames, n_features)`` in normalised units.
 
         Args:
@@ -244,6 +294,9 @@ class Glow(FootAnchor, MotionFlow):
             temperature: the prior's standard deviation (§3, after Kingma & Dhariwal):
                 1 samples the model, 0 gives the image of the latent mode ``z = 0``.
             generator: a ``torch.Generator`` for reproducible samples.
+            contacts: with a contact head, the contacts to draw the pose for, ``(n, frames,
+                4)`` 0/1; by default the head draws them (always at its own temperature, 1:
+                the temperature scales the flow's latent only).
         """
         if n < 1:
             raise ValueError(f"n: expected at least 1 sample, got {n}")
@@ -252,9 +305,10 @@ class Glow(FootAnchor, MotionFlow):
             frames = int(torch.as_tensor(control).shape[1]) if given else self.config.window
         control = self._check_control(control, n, frames)
         self.flow._check_frames("frames", frames)
+        contacts = self._contacts(contacts, control, generator)
         z = self.prior.sample((n, frames * self.n_modelled), temperature, generator,
                               device=self.modelled.device)
-        return self.join_features(self._inverse(z, control), control)
+        return self.join_features(self._inverse(z, control, contacts), control)
 
     def generate(self, control=None, *, frames=None, prefix=None, n=1, temperature=1.0, seed=0) -> Generated:
         """``n`` windows; see :mod:`motionlab.models.base`.
@@ -272,7 +326,12 @@ class Glow(FootAnchor, MotionFlow):
         else:
             control = None
             frames = self.config.window if frames is None else checks.whole(frames, "frames", 1)
-        return self._result(self.sample(n, control, frames, temperature, generator_for(seed)))
+        generator = generator_for(seed)
+        if self.contact_head is None:
+            return self._result(self.sample(n, control, frames, temperature, generator))
+        contacts = self._contacts(None, torch.as_tensor(control, dtype=torch.float32, device=self.modelled.device),
+                                  generator)                        # drawn first, as sample would draw them
+        return self._result(self.sample(n, control, frames, temperature, generator, contacts=contacts), contacts)
 
     def describe(self, frames: int | None = None) -> list[str]:
         """One line per level of the hierarchy: frames, channels, conditioning, split."""
@@ -290,6 +349,9 @@ class Glow(FootAnchor, MotionFlow):
                          "(foot_anchor: triangular over the window, log-determinant 0)")
         if self.config.leg_anchor:
             lines.append("and the toes less their ankles, the knees less the midpoint of hip and ankle (leg_anchor)")
+        if self.config.contact_head:
+            lines.append(f"beside the flow: p(contacts | control), {N_CONTACTS} labels per frame drawn frame by frame, "
+                         f"which the coupling networks see beside the control (contact_head)")
         return lines
 
 

@@ -78,6 +78,8 @@ from .flows import (FlowSequence, FlowStep, GaussianPrior, MLPCouplingNet, Motio
                     output_layer)
 from . import anchor
 from .anchor import FootAnchor
+from . import contact_head
+from .contact_head import N_CONTACTS, ContactHead, DataContacts
 from .modelcard import ModelCard
 
 
@@ -116,6 +118,10 @@ class MoGlowConfig:
         leg_anchor: with ``foot_anchor``, each toe's ``x, z`` is modelled less its ankle's
             and each knee less the midpoint of its hip and ankle, in the same frame
             (:mod:`motionlab.models.anchor`): the legs keep their length. Not in the paper.
+        contact_head: model each frame's foot contacts beside its pose, ``p(c_t | c_<t,
+            cond_t) p(x_t | c_t, cond_t)`` (:mod:`motionlab.models.contact_head`: the head
+            sees the frame's conditioning, the coupling networks also the frame's labels);
+            needs the locomotion features and, to train, the model's normaliser. Not in the paper.
     """
 
     n_features: int = 66
@@ -133,6 +139,7 @@ class MoGlowConfig:
     foot_anchor: bool = False
     anchor_conditioning: bool = False
     leg_anchor: bool = False
+    contact_head: bool = False
 
     def __post_init__(self):
         checks.config(self, probability_fields=("dropout",))
@@ -154,6 +161,7 @@ class MoGlowConfig:
         anchor.check_config(self)
         if self.anchor_conditioning and not self.foot_anchor:
             raise ValueError("anchor_conditioning: the networks see the feet's anchor m; needs foot_anchor=True")
+        contact_head.check_config(self)
 
     @classmethod
     def paper(cls, **changes) -> "MoGlowConfig":
@@ -199,7 +207,7 @@ class LSTMCouplingNet(nn.Module):
         return output_layer(self.output, hidden, lo)            # float32 under mixed precision
 
 
-class MoGlow(FootAnchor, MotionFlow):
+class MoGlow(DataContacts, FootAnchor, MotionFlow):
     """The autoregressive MoGlow of §4.2 (or its Markov variant, ``recurrent=False``).
 
     Batches are normalised feature windows ``(batch, frames, n_features)`` with
@@ -221,10 +229,13 @@ class MoGlow(FootAnchor, MotionFlow):
             network = partial(LSTMCouplingNet, hidden=config.hidden, layers=config.lstm_layers)
         else:
             network = partial(MLPCouplingNet, hidden=config.hidden)
-        self.flow = FlowSequence(FlowStep(self.n_modelled, network, self.cond_channels)
+        self.flow = FlowSequence(FlowStep(self.n_modelled, network, self.cond_channels + N_CONTACTS * config.contact_head)
                                  for _ in range(config.steps))
         self.prior = GaussianPrior()
         self._init_foot_anchor(config)
+        # p(c_t | c_<t, cond_t): per frame (width 1), so it streams with the flow
+        self.contact_head = ContactHead(self.cond_channels, config.hidden, width=1) if config.contact_head else None
+        self.nll_is = "bound, with contacts" if config.contact_head else "exact"
 
     # -- data in and out -----------------------------------------------------------------
 
@@ -297,7 +308,8 @@ class MoGlow(FootAnchor, MotionFlow):
 
     def log_likelihood(self, batch: torch.Tensor) -> torch.Tensor:
         """``Σ_{t>τ} ln p(x_t | x_{t-τ:t-1}, c_{t-τ:t}, h_t)`` of each window, nats,
-        normalised units, ``(batch,)``. The first ``τ`` frames are given (footnote 2)."""
+        normalised units, ``(batch,)``. The first ``τ`` frames are given (footnote 2). With a
+        contact head, the joint ``ln p(x, c(x))`` at the data's own contacts (a lower bound)."""
         self.check_features(batch)
         poses, control = batch[..., self.modelled], batch[..., self.control]
         cond = self.conditioning(poses, control, drop=self.training)
@@ -305,8 +317,12 @@ class MoGlow(FootAnchor, MotionFlow):
         target = poses[:, tau:]
         if self.config.foot_anchor:          # a shift by the conditioning: log-determinant 0
             target = self._anchored(target, poses[:, tau - 1:-1], control[:, tau - 1:-1], -1.0)
-        z, logdet = self.flow(target, cond)
-        return self.prior.log_prob(z) + logdet
+        if self.contact_head is None:
+            z, logdet = self.flow(target, cond)
+            return self.prior.log_prob(z) + logdet
+        labels = self.data_contacts(batch)[:, tau:]      # ln p(x, c(x)): a lower bound on ln p(x)
+        z, logdet = self.flow(target, self.with_contacts(cond, labels))
+        return self.prior.log_prob(z) + logdet + self.contact_head.log_prob(labels, cond)
 
     def loss(self, batch: torch.Tensor) -> dict[str, torch.Tensor]:
         """NLL in nats per modelled value (``"loss"``) and in bits per predicted frame."""
@@ -386,15 +402,28 @@ class MoGlow(FootAnchor, MotionFlow):
         poses = history[..., self.modelled]
         controls = torch.cat([history[..., self.control], control], dim=1)
         units = self.anchor_units() if self.config.foot_anchor else None       # once, not every frame
+        carried = self.contact_head.start(batch, history.device) if self.contact_head is not None else None
         with eval_mode(self), self.carrying_state():
             for t in range(frames):
                 cond = self.frame_conditioning(self.history_scale * poses[:, -tau:], controls[:, t:t + tau + 1],
                                                poses[:, -1], units)
+                cond, carried = self.draw_contacts(cond, carried, generator)
                 x = self.flow.inverse(temperature * noise[:, t:t + 1], cond)
                 if self.config.foot_anchor:
                     x = self._anchored(x, poses[:, -1:], controls[:, t + tau - 1:t + tau], 1.0, units)
                 poses = torch.cat([poses, x], dim=1)
         return self.join_features(poses[:, tau:], control)
+
+    def draw_contacts(self, cond: torch.Tensor, carried, generator: torch.Generator | None = None):
+        """With a contact head, one frame's contacts drawn from ``p(c_t | c_<t, cond_t)`` and
+        appended to its conditioning ``(batch, 1, cond_channels)`` as ``±1``; ``carried``: the
+        head's state (:meth:`ContactHead.start`). Returns ``(conditioning, carried)``;
+        without a head, both unchanged."""
+        if self.contact_head is None:
+            return cond, carried
+        context = self.contact_head._context(cond)[:, 0]
+        labels, carried = self.contact_head.step(context, carried, generator)
+        return self.with_contacts(cond, labels[:, None]), carried
 
     def _noise(self, noise, shape, generator) -> torch.Tensor:
         """Standard-normal ``ε`` of ``shape``: ``noise`` checked, or drawn with ``generator``."""
@@ -410,7 +439,8 @@ class MoGlow(FootAnchor, MotionFlow):
         frames; the last ``τ`` are the history); see :mod:`motionlab.models.base`.
 
         A recurrent model runs as a :class:`~motionlab.engine.stream.MoGlowStream` (the real-time path; ``n``
-        streams as one batch), a Markov one through :meth:`sample`.
+        streams as one batch), a Markov one through :meth:`sample`. With a contact head, a recurrent
+        model's result holds the contacts it drew (``Generated.contacts``).
         """
         n, temperature = self._check_common(n, temperature, seed)
         control = self._control_array(control, n, frames)
@@ -423,7 +453,14 @@ class MoGlow(FootAnchor, MotionFlow):
             return self._result(self.sample(control, history, temperature, generator=generator_for(seed)))
         stream = self.stream(torch.tensor(history, dtype=torch.float32), temperature, generator_for(seed),
                              self._normalizer())
-        return self._result_in_data_units(stream.run(torch.tensor(control, dtype=torch.float32)).cpu().numpy())
+        control = torch.tensor(control, dtype=torch.float32)
+        if self.contact_head is None:
+            return self._result_in_data_units(stream.run(control).cpu().numpy())
+        frames, drawn = [], []                                    # a contact head's: keep what it drew
+        for t in range(control.shape[1]):
+            frames.append(stream.step(control[:, t]))
+            drawn.append(stream.contacts)
+        return self._result_in_data_units(torch.stack(frames, 1).cpu().numpy(), torch.stack(drawn, 1))
 
     def stream(self, history: torch.Tensor, temperature: float = 1.0, generator: torch.Generator | None = None,
                normalizer=None, weights: torch.dtype = torch.float32):
@@ -448,7 +485,9 @@ class MoGlow(FootAnchor, MotionFlow):
             ([f"the conditioning also holds m, where the feet would be had they stayed planted "
               f"({len(anchor.FOOT_XZ)} values, anchor_conditioning)"] if c.anchor_conditioning else []) + \
             (["toes modelled less their ankles, knees less the midpoint of hip and ankle (leg_anchor)"]
-             if c.leg_anchor else [])
+             if c.leg_anchor else []) + \
+            ([f"beside the flow: p(contacts | earlier contacts, conditioning), {N_CONTACTS} labels per frame, "
+              "which the coupling networks see beside the conditioning (contact_head)"] if c.contact_head else [])
 
 
 CARD = ModelCard("moglow", MoGlow, MoGlowConfig, schedule=henter_schedule(80_000, "autoregressive"))
