@@ -144,7 +144,7 @@ SCORED_POSE = tuple(i for i in range(N_POSE) if i not in MoGlowConfig().constant
 
 def held_out_nll(model, windows: np.ndarray) -> tuple[float, str]:
     """Test NLL of held-out ``windows`` ``(n, frames, 66)`` (data units) in bits per frame,
-    data units, and what it is: ``"exact"`` (the flows), ``"bound, with contacts"`` (a Glow
+    data units, and what it is: ``"exact"`` (the flows), ``"bound, with contacts"`` (a flow
     with a contact head: its joint NLL of pose and contacts at the data's own contacts),
     ``"bound"`` (the VAE-LSTM's negative ELBO, on the same pose values given the control),
     ``"bound, conv features"`` (Motegi's VAE: its negative ELBO bounds its conv features,

@@ -83,11 +83,11 @@ def planted_heights(positions) -> np.ndarray:
     return metrics.foot_rest_heights(_positions(positions), FEET)
 
 
-def _contact_array(contacts, shape: tuple[int, ...]) -> np.ndarray:
-    """``contacts`` as booleans of exactly ``shape`` (..., 4), else ``ValueError``."""
+def _contact_array(contacts, shape: tuple[int, ...], name: str = "contacts") -> np.ndarray:
+    """``contacts`` as booleans of exactly ``shape`` (..., 4), else ``ValueError`` naming ``name``."""
     contacts = np.asarray(contacts)
     if contacts.shape != shape or contacts.dtype != bool:
-        raise ValueError(f"contacts: expected booleans of shape {shape} (ankle and toe of each foot), "
+        raise ValueError(f"{name}: expected booleans of shape {shape} (ankle and toe of each foot), "
                          f"got {contacts.dtype} {contacts.shape}")
     return contacts
 

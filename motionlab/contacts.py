@@ -244,9 +244,9 @@ class FootLock:
         stay = (above < RELEASE * self.height_m) & (speed < RELEASE * limit)
         return enter | (self.contact & stay)
 
-    def _contacts(self, contacts, single: bool) -> np.ndarray:
+    def _contacts(self, contacts, single: bool, name: str = "contacts") -> np.ndarray:
         contact = np.asarray(contacts)
-        return _contact_array(contact[None] if single and contact.ndim == 1 else contact, (self.batch, 4))
+        return _contact_array(contact[None] if single and contact.ndim == 1 else contact, (self.batch, 4), name)
 
     def step(self, frame, contacts=None, approach=None, drawn=None) -> np.ndarray:
         """One frame ``(batch, 21, 3)`` (or ``(21, 3)`` when ``batch`` is 1) in, the same
@@ -265,10 +265,7 @@ class FootLock:
                              "detector's (drawn), not both")
         contact = self._detect(frame) if contacts is None else self._contacts(contacts, single)
         if drawn is not None:
-            try:
-                contact = contact | self._contacts(drawn, single)
-            except ValueError as error:
-                raise ValueError(f"drawn: {str(error).split(': ', 1)[1]}") from None
+            contact = contact | self._contacts(drawn, single, "drawn")
         in_contact = contact.reshape(-1, 2, 2)                                # (b, feet, ankle/toe)
         self.blocked &= in_contact.any(-1)                                    # a new contact may lock again
         active = in_contact.any(-1) & ~self.blocked                           # (b, feet)
@@ -469,10 +466,7 @@ def lock(positions, fps: float, contacts=None, planted_height_m=None, blend_s: f
     contacts = detect(positions, fps, floor) if contacts is None else \
         _contact_array(contacts, positions.shape[:-2] + (4,))
     if drawn is not None:
-        try:
-            contacts = contacts | _contact_array(drawn, positions.shape[:-2] + (4,))
-        except ValueError as error:
-            raise ValueError(f"drawn: {str(error).split(': ', 1)[1]}") from None
+        contacts = contacts | _contact_array(drawn, positions.shape[:-2] + (4,), "drawn")
     flat = positions.reshape(-1, frames, LOCOMOTION.n_joints, 3)
     flat_contacts = contacts.reshape(-1, frames, 4)
     approach = approach_shift(flat, flat_contacts, fps, floor, approach_s)

@@ -248,9 +248,10 @@ def finished_feet(model, windows: np.ndarray, temperature: float, seed: int = 0)
     """Feet raw and finished: one sample per window of ``windows`` ``(n, frames, 66)`` (data
     units), given that window's control (as :func:`temperature_sweep` draws them), made into a
     character by :func:`motionlab.contacts.finish` (bones fitted, feet locked, the windows'
-    planted heights; a contact head's drawn contacts held as well as the detected ones). Returns the foot skating (:func:`metrics.foot_skating`, cm/s) of the
-    ``"data"``, the ``"raw"`` samples and the ``"finished"`` ones, and the share of contacts
-    the lock let go for reach (``"out of reach"``)."""
+    planted heights; a contact head's drawn contacts held as well as the detected ones).
+    Returns the foot skating (:func:`metrics.foot_skating`, cm/s) of the ``"data"``, the
+    ``"raw"`` samples and the ``"finished"`` ones, and the share of contacts the lock let go
+    for reach (``"out of reach"``)."""
     from . import contacts
     windows = np.asarray(windows, dtype=np.float64)
     fps = model.fps
@@ -258,7 +259,7 @@ def finished_feet(model, windows: np.ndarray, temperature: float, seed: int = 0)
     floor = metrics.foot_rest_heights(data_positions)
     generated = model.generate(windows[..., POSE.stop:], n=len(windows), temperature=temperature, seed=seed)
     samples = generated.features
-    done = contacts.finish(samples, fps, planted_height_m=floor, drawn=getattr(generated, "contacts", None))
+    done = contacts.finish(samples, fps, planted_height_m=floor, drawn=generated.contacts)
     skating = {name: 100 * metrics.foot_skating(p, fps, rest_height_m=floor)
                for name, p in (("data", data_positions), ("raw", to_positions(samples, fps)), ("finished", done.positions))}
     return {**skating, "out of reach": done.lock.out_of_reach}

@@ -106,8 +106,9 @@ class ContactHead(nn.Module):
         self.rnn = nn.GRU(2 * hidden, hidden, batch_first=True)
         self.out = nn.Linear(hidden, STATES)
 
-    def _context(self, inputs: torch.Tensor) -> torch.Tensor:
-        return self.context(inputs.transpose(1, 2)).transpose(1, 2)      # (n, frames, hidden)
+    def context_of(self, inputs: torch.Tensor) -> torch.Tensor:
+        """The context ``(n, frames, n_inputs)`` through the head's layers: ``(n, frames, hidden)``."""
+        return self.context(inputs.transpose(1, 2)).transpose(1, 2)
 
     def log_prob(self, labels: torch.Tensor, inputs: torch.Tensor) -> torch.Tensor:
         """``ln p(c | u)`` of each window, nats, ``(n,)``: labels ``(n, frames, 4)`` (0/1),
@@ -116,7 +117,7 @@ class ContactHead(nn.Module):
         index = states(labels)
         start = torch.full_like(index[:, :1], STATES)
         previous = torch.cat([start, index[:, :-1]], 1)
-        hidden, _ = self.rnn(torch.cat([self.embed(previous), self._context(inputs)], -1))
+        hidden, _ = self.rnn(torch.cat([self.embed(previous), self.context_of(inputs)], -1))
         logits = torch.log_softmax(self.out(hidden), -1)
         return logits.gather(-1, index[..., None])[..., 0].sum(1)
 
@@ -126,7 +127,7 @@ class ContactHead(nn.Module):
 
     @torch.no_grad()
     def step(self, context: torch.Tensor, carried, generator: torch.Generator | None = None):
-        """One frame: ``context`` ``(n, hidden)`` (this frame's row of :meth:`_context`) and the
+        """One frame: ``context`` ``(n, hidden)`` (this frame's row of :meth:`context_of`) and the
         ``carried`` state (:meth:`start`) -> the frame's labels ``(n, 4)`` (0/1) and the new state."""
         previous, hidden = carried
         output, hidden = self.rnn(torch.cat([self.embed(previous), context], -1)[:, None], hidden)
@@ -138,7 +139,7 @@ class ContactHead(nn.Module):
     def sample(self, inputs: torch.Tensor, generator: torch.Generator | None = None) -> torch.Tensor:
         """Labels ``(n, frames, 4)`` (0/1 floats) drawn frame by frame for the context
         ``(n, frames, n_inputs)``."""
-        context = self._context(inputs)
+        context = self.context_of(inputs)
         carried, drawn = self.start(len(inputs), inputs.device), []
         for t in range(inputs.shape[1]):
             labels, carried = self.step(context[:, t], carried, generator)

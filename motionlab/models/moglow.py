@@ -56,6 +56,14 @@ the paper either) ``m`` is also part of every coupling's conditioning, never dro
 ``leg_anchor`` the toes and knees are modelled relative to the ankles and hips of their
 frame, so that a held foot does not stretch the leg.
 
+**A contact head** (``contact_head``, off by default, not in the paper;
+:mod:`motionlab.models.contact_head`). Each frame's foot contacts ``c_t`` are modelled
+beside its pose, ``p(c_t | c_{<t}, cond_t) p(x_t | c_t, cond_t)``: the head reads the
+frame's conditioning (eq. 18's history and controls), the coupling networks also read the
+labels. Both factors are exact; at the data's own labels the joint likelihood bounds eq. 16
+from below. Sampling, and :class:`~motionlab.engine.stream.MoGlowStream`, draw the contacts
+first, frame by frame (:meth:`MoGlow.draw_contacts`).
+
 Everything here reuses :mod:`motionlab.models.flows` unchanged: the coupling network is
 the pluggable part (:class:`LSTMCouplingNet` here; the Markovian variant of §4.2 uses
 :class:`~motionlab.models.flows.MLPCouplingNet`).
@@ -421,7 +429,7 @@ class MoGlow(DataContacts, FootAnchor, MotionFlow):
         without a head, both unchanged."""
         if self.contact_head is None:
             return cond, carried
-        context = self.contact_head._context(cond)[:, 0]
+        context = self.contact_head.context_of(cond)[:, 0]
         labels, carried = self.contact_head.step(context, carried, generator)
         return self.with_contacts(cond, labels[:, None]), carried
 
