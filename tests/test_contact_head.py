@@ -197,3 +197,20 @@ def test_the_live_character_holds_the_contacts_its_model_drew(synthetic):
         character.tick({"forward"})
         drawn = character.stream.contacts[0].numpy()
         assert (character.lock.contact[0] >= drawn).all()              # every drawn contact is held
+
+
+def test_a_markov_moglow_returns_the_contacts_it_drew(synthetic):
+    """A feed-forward MoGlow samples through ``sample``, not the stream: its ``generate`` keeps the drawn contacts too."""
+    from dataclasses import replace
+    torch.manual_seed(0)
+    model = MoGlow(replace(MOGLOW, recurrent=False))
+    model.normalizer = synthetic.normalizer
+    model.loss(synthetic.test.windows[:8])
+    model.eval()
+    real = synthetic.normalizer.denormalize(synthetic.test.windows[:2]).numpy()
+    generated = model.generate(real[:, 4:, -3:], n=2, prefix=real[:, :4], seed=0)
+    assert generated.contacts.shape == (2, 12, N_CONTACTS) and generated.contacts.dtype == bool
+    control = synthetic.test.windows[:2, 4:, -3:]
+    frames, drawn = model._sample(control, synthetic.test.windows[:2, :4], 1.0, None, torch.Generator().manual_seed(5))
+    again = model.sample(control, synthetic.test.windows[:2, :4], 1.0, generator=torch.Generator().manual_seed(5))
+    assert torch.equal(frames, again) and drawn.shape == (2, 12, N_CONTACTS)

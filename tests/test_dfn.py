@@ -308,3 +308,84 @@ def test_the_decoders_forward_kinematics_is_the_librarys():
     offsets[:, 0] = hips.numpy()
     _, theirs = forward_kinematics(np.asarray(LOCOMOTION.parents), local, offsets)
     assert np.allclose(ours.numpy(), theirs, atol=1e-12)
+
+
+# -- A contact head (not in the paper): contacts drawn between the future and the current state ----
+
+HEAD = replace(SMALL, contact_head=True)
+
+
+def _headed(prepared, seed=0):
+    torch.manual_seed(seed)
+    model = DFN(HEAD)
+    model.normalizer = prepared.normalizer            # the data's contacts are measured in metres
+    return staged(model, prepared.train.windows)
+
+
+def test_contact_head_config_and_where_the_contacts_enter(prepared):
+    with pytest.raises(ValueError, match="contact_head"):
+        DFNConfig(pose_decoder="positions", n_pose=60, contact_head=True)
+    assert DFNConfig().contact_head is False and DFNConfig.paper().contact_head is False       # the paper's
+    model = _headed(prepared)
+    assert all(p.requires_grad for p in model.contact_head.parameters())      # trained with the dynamics
+    model.set_stage("frame")
+    assert not any(p.requires_grad for p in model.contact_head.parameters())
+    d = model.dynamics
+    h, s = torch.randn(2, HEAD.past), torch.randn(2, HEAD.summary)
+    planted, lifted = torch.ones(2, 4), torch.zeros(2, 4)
+    # the current prior and the past GRU read the contacts (as +-1): other contacts, other states
+    assert not torch.allclose(d.current_prior(h, s, 2 * planted - 1)[0], d.current_prior(h, s, 2 * lifted - 1)[0])
+    state = d.initial_state(2, HEAD.past, "cpu")
+    z, f = torch.randn(2, HEAD.current), torch.randn(2, HEAD.future)
+    assert not torch.allclose(d.step_past(state, z, f, planted)[-1], d.step_past(state, z, f, lifted)[-1])
+
+
+def test_contact_head_loss_is_the_heads_likelihood_of_the_data_contacts(prepared):
+    model = _headed(prepared)
+    batch = prepared.train.windows[:6]
+    torch.manual_seed(1)
+    terms = model.loss(batch)
+    torch.manual_seed(1)
+    out = model.infer(batch)
+    steps = out["z"].shape[1]
+    labels = model.data_contacts(batch)[:, :steps]
+    assert torch.equal(out["contacts"], labels) and 0 < labels.mean() < 1
+    expected = -model.contact_head.log_prob(labels, torch.cat([out["h"], out["f"]], -1)).mean() / steps
+    assert torch.allclose(terms["contacts"], expected, atol=1e-5)
+    assert abs(float(terms["contacts"]) - math.log(16)) < 0.5             # untrained: about uniform
+    with pytest.raises(ValueError, match="normaliser"):                 # labels in metres need it
+        staged(DFN(HEAD), prepared.train.windows).loss(batch)
+
+
+def test_contact_head_generates_its_contacts_reproducibly(prepared):
+    model = _headed(prepared)
+    prefix = prepared.normalizer.denormalize(prepared.test.windows[:2, :8].numpy())
+    first = model.generate(prefix=prefix, frames=30, n=2, seed=3)
+    assert first.features.shape == (2, 30, 66) and np.isfinite(first.features).all()
+    assert first.contacts.shape == (2, 30, 4) and first.contacts.dtype == bool
+    again = model.generate(prefix=prefix, frames=30, n=2, seed=3)
+    assert np.array_equal(first.contacts, again.contacts) and np.array_equal(first.features, again.features)
+    other = model.generate(prefix=prefix, frames=30, n=2, seed=4)
+    assert not np.array_equal(first.contacts, other.contacts)
+    out = model.sample(prepared.test.windows[:2, :8], 20, generator=torch.Generator().manual_seed(0), latents=True)
+    assert out["contacts"].shape == (2, 12, 4)
+    plain = staged(DFN(SMALL), prepared.train.windows)
+    plain.normalizer = prepared.normalizer
+    assert plain.generate(prefix=prefix, frames=5, n=2).contacts is None           # no head, nothing drawn
+
+
+@pytest.mark.slow
+def test_contact_head_learns_the_contacts_and_the_checkpoint_keeps_it(prepared, tmp_path):
+    model = _headed(prepared)
+    model.set_stage("frame")
+    cfg = lambda steps: training.TrainConfig(epochs=100, max_steps=steps, batch_size=16, lr=3e-3,  # noqa: E731
+                                             progress=False)
+    histories = train_stages(model, prepared, {"frame": cfg(60), "sequence": cfg(40), "dynamics": cfg(150)})
+    nats = histories["dynamics"].series("contacts")[1]
+    assert nats[-10:].mean() < 0.6 * nats[:10].mean()
+    training.save_checkpoint(tmp_path / "dfn.pt", model, data=prepared)
+    loaded = training.load_checkpoint(tmp_path / "dfn.pt").model
+    assert loaded.config.contact_head and loaded.contact_head is not None
+    prefix = prepared.normalizer.denormalize(prepared.test.windows[:2, :8].numpy())
+    assert np.array_equal(loaded.generate(prefix=prefix, frames=20, n=2, seed=0).contacts,
+                          model.generate(prefix=prefix, frames=20, n=2, seed=0).contacts)

@@ -23,6 +23,17 @@ temporal-difference term (§5.5, after TD-VAE): a state ``z_t1`` inferred back f
 ``z_t2`` must predict ``z_t2`` over the skip ``t2 - t1``. The loss (§5.6) is the frame
 reconstruction, the future-summary reconstruction, the two KL terms and the TD term.
 
+**A contact head** (``contact_head``, off by default; not in the paper; after the flows'
+:mod:`motionlab.models.contact_head`). Each frame's foot contacts ``c_t`` (ankles and toes, a
+discrete state) are drawn after the future and before the current state, and the current
+state and the past read them, as the flows' poses do::
+
+    c_t ~ p(c_t | c_<t, h_t, f_t)      z_t ~ p(z_t | h_t, s^_t, c_t)      h_{t+1} = GRU(h_t, [z_t, f_t, c_t])
+
+Trained in the dynamics stage at the data's own labels, so the dynamics loss stays an ELBO,
+now of the frames and their contacts. The drawn contacts are what the foot lock holds
+(``Generated.contacts``).
+
 Training is staged as in the paper (§5.6): the frame autoencoder first (stage
 ``"frame"``), then, with it frozen, the dynamics embedding (``"sequence"``), then, with
 both frozen, the dynamics model (``"dynamics"``). :func:`motionlab.training.train_stages`
@@ -45,7 +56,9 @@ from torch import nn
 from .. import checks
 from . import gaussian
 from ..skeleton import LOCOMOTION
+from . import contact_head
 from .base import GenerativeModel, eval_mode
+from .contact_head import N_CONTACTS, ContactHead, DataContacts
 from .dfn_parts import ForwardKinematics, GaussianHead, StagedTraining, mlp, quaternion_to_matrix
 from .modelcard import NO_CLIP, ModelCard, choice, paper
 
@@ -94,6 +107,10 @@ class DFNConfig:
             past-state GRU (eq. 8) reads a sample of the priors (eqs. 5-7) instead of the
             posteriors' (scheduled sampling, Bengio et al. 2015, on the latent states), so
             that ``h`` learns from the states generation gives it; 0 = the paper (shipped).
+        contact_head: *not in the paper*: model each frame's foot contacts, ``p(c_t | c_<t,
+            h_t, f_t)`` (:mod:`motionlab.models.contact_head`), and give them to the current
+            prior and the past GRU; trained with the dynamics model; generation draws them
+            (``Generated.contacts``).
     """
 
     n_pose: int = 63
@@ -120,6 +137,7 @@ class DFNConfig:
     pose_decoder: str = "rotations"
     contact_weight: float = 0.0
     prior_feed: float = 0.0
+    contact_head: bool = False
 
     def __post_init__(self):
         checks.config(self, positive_fields=("observation_std",),
@@ -130,6 +148,7 @@ class DFNConfig:
         if self.pose_decoder == "rotations" and self.n_pose != 3 * LOCOMOTION.n_joints:
             raise ValueError(f"pose_decoder: 'rotations' decodes the {LOCOMOTION.n_joints}-joint locomotion "
                              f"skeleton ({3 * LOCOMOTION.n_joints} pose values), got n_pose={self.n_pose}")
+        contact_head.check_config(self)
 
     @property
     def n_features(self) -> int:
@@ -279,12 +298,13 @@ class DynamicsModel(nn.Module):
     def __init__(self, config: DFNConfig):
         super().__init__()
         c = config
+        contacts = N_CONTACTS if c.contact_head else 0            # not in the paper: see DFNConfig.contact_head
         # §5.3 generative model
-        self.past = nn.ModuleList([nn.GRUCell(c.current + c.future, c.past),          # eq. 8: 2 layers
+        self.past = nn.ModuleList([nn.GRUCell(c.current + c.future + contacts, c.past),          # eq. 8: 2 layers
                                    nn.GRUCell(c.past, c.past)])
         self.future_prior = GaussianHead([c.past] + [c.future_prior_hidden] * 2 + [c.future])            # eq. 5
         self.summary_decoder = mlp([c.future, c.summary_decoder_hidden, c.summary])                      # eq. 6
-        self.current_prior = GaussianHead([c.past + c.summary] + [c.current_prior_hidden] * 3
+        self.current_prior = GaussianHead([c.past + c.summary + contacts] + [c.current_prior_hidden] * 3
                                           + [c.current])                                                # eq. 7
         self.current_feature = mlp([c.current] + [c.current_prior_hidden] * 3 + [c.code])   # x = MLP(z)
         # §5.4 inference
@@ -300,14 +320,16 @@ class DynamicsModel(nn.Module):
         """``h_0``: zeros for both GRU layers."""
         return [torch.zeros(batch, size, device=device) for _ in self.past]
 
-    def step_past(self, state: list[torch.Tensor], z: torch.Tensor, f: torch.Tensor) -> list[torch.Tensor]:
-        """Eq. 8: ``h_{t+1} = GRU(h_t, [z_t, f_t])``, two stacked layers.
+    def step_past(self, state: list[torch.Tensor], z: torch.Tensor, f: torch.Tensor,
+                  c: torch.Tensor | None = None) -> list[torch.Tensor]:
+        """Eq. 8: ``h_{t+1} = GRU(h_t, [z_t, f_t])``, two stacked layers (with a contact head,
+        ``[z_t, f_t, c_t]``, the contacts as ``±1``).
 
         *Choice*: the GRU reads the current and the future state ("given the current and
         future state, the past state is updated"), not the frame itself: generation never
         feeds decoded frames back, so it cannot drift out of the frame autoencoder's range.
         """
-        first = self.past[0](torch.cat([z, f], -1), state[0])
+        first = self.past[0](torch.cat([z, f] if c is None else [z, f, 2 * c - 1], -1), state[0])
         return [first, self.past[1](first, state[1])]
 
 
@@ -315,7 +337,7 @@ class DynamicsModel(nn.Module):
 # The model
 # ----------------------------------------------------------------------------------------
 
-class DFN(StagedTraining, GenerativeModel, nn.Module):
+class DFN(DataContacts, StagedTraining, GenerativeModel, nn.Module):
     """Chen et al.'s Dynamic Future Net: staged training, stochastic generation from a prefix.
 
     Training: ``set_stage(name)`` then ``loss(batch)`` on windows ``(batch, frames, 66)``
@@ -332,6 +354,8 @@ class DFN(StagedTraining, GenerativeModel, nn.Module):
         self.frame = FrameAutoencoder(config)                   # §5.1
         self.sequence = SequenceAutoencoder(config)             # §5.2
         self.dynamics = DynamicsModel(config)                   # §5.3-5.5
+        # Not in the paper: p(c_t | c_<t, h_t, f_t), per frame (width 1), trained with the dynamics
+        self.contact_head = (ContactHead(config.past + config.future, width=1) if config.contact_head else None)
         # Choice: the dynamics model works on standardised frame codes and summaries, so
         # that its Gaussian likelihoods and KL terms do not depend on the arbitrary scale
         # the autoencoders happened to learn. Fitted when a stage is frozen (set_stage).
@@ -426,6 +450,8 @@ class DFN(StagedTraining, GenerativeModel, nn.Module):
             s = self.summaries(codes)
         steps = s.shape[1]
         x = codes[:, :steps]
+        labels = None if self.contact_head is None else self.data_contacts(batch)[:, :steps]
+        given = (lambda t: None) if labels is None else (lambda t: labels[:, t])  # noqa: E731
         state = d.initial_state(batch.shape[0], c.past, batch.device)
         names = ("h", "qf_mu", "qf_log_var", "f", "qz_mu", "qz_log_var", "z")
         out: dict[str, list[torch.Tensor]] = {k: [] for k in names}
@@ -442,19 +468,23 @@ class DFN(StagedTraining, GenerativeModel, nn.Module):
             if self.training and c.prior_feed > 0:                           # see DFNConfig.prior_feed
                 with torch.no_grad():
                     pf = gaussian.sample(*d.future_prior(h), generator=generator)                      # eq. 5
-                    pz = gaussian.sample(*d.current_prior(h, d.summary_decoder(pf)), generator=generator)  # eqs. 6-7
+                    pz = gaussian.sample(*d.current_prior(h, d.summary_decoder(pf), *self._as_input(given(t))),
+                                         generator=generator)                                  # eqs. 6-7
                 feed = torch.rand(h.shape[0], 1, generator=generator, device=h.device) < c.prior_feed
                 f, z = torch.where(feed, pf, f), torch.where(feed, pz, z)
-            state = d.step_past(state, z, f)                                 # eq. 8
+            state = d.step_past(state, z, f, given(t))                       # eq. 8
         result = {k: torch.stack(v, 1) for k, v in out.items()}
         result["pf_mu"], result["pf_log_var"] = d.future_prior(result["h"])           # eq. 5
         result["s_hat"] = d.summary_decoder(result["f"])                               # eq. 6
         # Choice: the current prior is conditioned on the summary unrolled from the
         # posterior's f (as at generation, where it comes from the prior's f), not on
         # the true s, so that p(z | h, s^) is trained on the input it will get.
-        result["pz_mu"], result["pz_log_var"] = d.current_prior(result["h"], result["s_hat"])   # eq. 7
+        result["pz_mu"], result["pz_log_var"] = d.current_prior(result["h"], result["s_hat"],
+                                                                *self._as_input(labels))       # eq. 7
         result["x_hat"] = d.current_feature(result["z"])
         result.update(x=x, s=s)
+        if labels is not None:
+            result["contacts"] = labels
         return result
 
     def td_terms(self, out: dict[str, torch.Tensor], skip: int,
@@ -487,6 +517,8 @@ class DFN(StagedTraining, GenerativeModel, nn.Module):
         ``-log N(x_t | x^_t, std^2) - log N(s_t | s^_t, std^2)``
         ``+ KL(q(z_t | x_t, h_t, s_t) || p(z_t | h_t, s^_t)) + KL(q(f_t | h_t, s_t) || p(f_t | h_t))``
         ``+ td_weight * (KL(q_TD(z_t1 | ...) || q(z_t1 | ...)) - log p(z_t2 | z_t1, skip))``
+        ``- log p(c_t | c_<t, h_t, z_t, f_t)`` with a contact head (the data's own contacts;
+        logged as ``contacts``)
 
         The skip is drawn uniformly from ``1 .. td_max_skip`` per batch. Logged apart:
         ``x_nll``, ``s_nll``, ``kl_z``, ``kl_f``, ``td`` (nats per step), ``x_mse`` (standardised
@@ -508,7 +540,16 @@ class DFN(StagedTraining, GenerativeModel, nn.Module):
             td_loss = (td["td_kl"] + td["td_nll"]).mean()
             total = total + self.config.td_weight * td_loss
             terms["td"] = td_loss.detach()
+        if self.contact_head is not None:
+            contact_nll = -self.contact_head.log_prob(out["contacts"], torch.cat([out["h"], out["f"]], -1)).mean() / steps
+            total = total + contact_nll
+            terms["contacts"] = contact_nll.detach()
         return {"loss": total, **terms}
+
+    @staticmethod
+    def _as_input(labels: torch.Tensor | None) -> tuple[torch.Tensor, ...]:
+        """Contacts (0/1) as an extra input of the current prior, ``±1``: none without a head."""
+        return () if labels is None else (2 * labels - 1,)
 
     @torch.no_grad()
     def sample(self, prefix: torch.Tensor, frames: int, temperature: float = 1.0,
@@ -526,7 +567,8 @@ class DFN(StagedTraining, GenerativeModel, nn.Module):
 
         Returns ``(batch, frames, 66)`` normalised features; with ``latents=True`` a dict with ``"frames"``
         and ``"z"``, ``"f"``, ``"x"`` ``(batch, frames - k, size)`` (the current and future states and the
-        standardised current feature of each generated frame).
+        standardised current feature of each generated frame), and with a contact head
+        ``"contacts"`` ``(batch, frames - k, 4)``, the contacts drawn for the generated frames.
 
         The prefix drives the past state (*Choice*; the paper does not say how): read by the
         inference networks of §5.4 as training windows are, ``f_t``, ``z_t`` the means of
@@ -537,6 +579,9 @@ class DFN(StagedTraining, GenerativeModel, nn.Module):
         the data in the first second, now 0.96-0.99, ``benchmarks/dfn_steps.py``.) Then, per
         new frame (§3, Fig. 5a): ``f_t ~ p(f | h_t)``, ``s^_t = MLP(f_t)``,
         ``z_t ~ p(z | h_t, s^_t)``, ``x^_t = MLP(z_t)``, ``h_{t+1} = GRU(h_t, [z_t, f_t])``.
+        With a contact head, ``c_t ~ p(c_t | c_<t, h_t, f_t)`` after ``f_t``, and ``z_t`` and
+        ``h_{t+1}`` are given it; over the prefix the head draws from the primed states too
+        (*Choice*: so that sampling needs no normaliser), and those contacts are not returned.
         """
         self._check(prefix, "prefix")
         k = prefix.shape[1]
@@ -552,6 +597,7 @@ class DFN(StagedTraining, GenerativeModel, nn.Module):
         d, c, k = self.dynamics, self.config, prefix.shape[1]
         given_on, prefix = prefix.device, prefix.to(self.code_mean.device)      # to the model's device
         state = d.initial_state(prefix.shape[0], c.past, prefix.device)
+        carried = None if self.contact_head is None else self.contact_head.start(prefix.shape[0], prefix.device)
         # Priming (see sample): posteriors while s_t lies in the prefix, then the prior's f.
         codes = self.codes(prefix)
         summaries = self.summaries(codes) if k >= c.horizon else codes[:, :0]    # (n, k - H + 1, summary)
@@ -564,23 +610,37 @@ class DFN(StagedTraining, GenerativeModel, nn.Module):
                 f = d.future_prior(h)[0]                                                 # eq. 5
                 s = d.summary_decoder(f)                                                 # eq. 6
             z = d.current_posterior(x, h, s)[0]                                          # eq. 10
-            state = d.step_past(state, z, f)
-        zs, fs = [], []
+            carried, labels = self._draw_contacts(h, f, carried, generator)
+            state = d.step_past(state, z, f, labels)
+        zs, fs, cs = [], [], []
         for _ in range(frames - k):
             h = state[-1]
             f = gaussian.sample(*d.future_prior(h), temperature, generator)             # eq. 5
             s_hat = d.summary_decoder(f)                                                  # eq. 6
-            z = gaussian.sample(*d.current_prior(h, s_hat), temperature, generator)      # eq. 7
-            zs.append(z), fs.append(f)
-            state = d.step_past(state, z, f)                                     # eq. 8
+            carried, labels = self._draw_contacts(h, f, carried, generator)
+            z = gaussian.sample(*d.current_prior(h, s_hat, *self._as_input(labels)), temperature, generator)  # eq. 7
+            zs.append(z), fs.append(f), cs.append(labels)
+            state = d.step_past(state, z, f, labels)                             # eq. 8
         empty = prefix.new_zeros(prefix.shape[0], 0, 1)
         stack = lambda v, n: torch.stack(v, 1) if v else empty.expand(-1, -1, n)  # noqa: E731
         x = d.current_feature(stack(zs, c.current))                  # x = MLP(z), every frame at once
         motion = torch.cat([prefix, self.frames_from_codes(x)], 1)
         if latents:
-            return {"frames": motion.to(given_on), "z": stack(zs, c.current).to(given_on),
-                    "f": stack(fs, c.future).to(given_on), "x": x.to(given_on)}
+            out = {"frames": motion.to(given_on), "z": stack(zs, c.current).to(given_on),
+                   "f": stack(fs, c.future).to(given_on), "x": x.to(given_on)}
+            if self.contact_head is not None:
+                out["contacts"] = stack(cs, 4).to(given_on)
+            return out
         return motion.to(given_on)
+
+    def _draw_contacts(self, h, f, carried, generator):
+        """With a contact head, the head's carried state and one frame's contacts ``(n, 4)``
+        drawn from ``p(c_t | c_<t, h_t, f_t)``; without one, ``(None, None)``."""
+        if self.contact_head is None:
+            return None, None
+        context = self.contact_head.context_of(torch.cat([h, f], -1)[:, None])[:, 0]
+        labels, carried = self.contact_head.step(context, carried, generator)
+        return carried, labels
 
 
 # ------------------------------------------------------------------------ training

@@ -142,10 +142,11 @@ class StagedTraining:
         """
         if stage not in self.stages:
             raise ValueError(f"stage: expected one of {', '.join(self.stages)}, got {stage!r}")
-        trained = {"frame": self.frame, "sequence": self.sequence, "dynamics": self.dynamics}[stage]
+        trained = {"frame": [self.frame], "sequence": [self.sequence],
+                   "dynamics": [self.dynamics, self.contact_head]}[stage]      # no head: None
         for p in self.parameters():
             p.requires_grad_(False)
-        for p in trained.parameters():
+        for p in (p for part in trained if part is not None for p in part.parameters()):
             p.requires_grad_(True)
         if stage == "frame" and windows is not None:
             self._check(windows, "windows")
@@ -219,10 +220,12 @@ class StagedTraining:
         new frames; see :mod:`motionlab.models.base`.
 
         DFN has no control input (§6.1: open-loop, diversified motion): ``control`` is
-        ignored; the model chooses its own path. Temperature 0 gives the mean path.
+        ignored; the model chooses its own path. Temperature 0 gives the mean path. With a
+        contact head, ``Generated.contacts`` holds the contacts drawn for the new frames.
         """
         n, temperature = self._check_common(n, temperature, seed)
         prefix = self._normalized_prefix(prefix, n)
         frames = checks.whole(frames, "frames", 1)
         k = prefix.shape[1]
-        return self._result(self.sample(prefix, k + frames, float(temperature), generator_for(seed))[:, k:])
+        out = self.sample(prefix, k + frames, float(temperature), generator_for(seed), latents=True)
+        return self._result(out["frames"][:, k:], out.get("contacts"))

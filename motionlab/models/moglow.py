@@ -87,7 +87,7 @@ from .flows import (FlowSequence, FlowStep, GaussianPrior, MLPCouplingNet, Motio
 from . import anchor
 from .anchor import FootAnchor
 from . import contact_head
-from .contact_head import N_CONTACTS, ContactHead, DataContacts
+from .contact_head import N_CONTACTS, ContactHead, DataContacts, labels_of
 from .modelcard import ModelCard
 
 
@@ -403,6 +403,11 @@ class MoGlow(DataContacts, FootAnchor, MotionFlow):
             The generated frames, normalised features ``(batch, frames, n_features)``, with
             the given control copied in.
         """
+        return self._sample(control, history, temperature, noise, generator)[0]
+
+    def _sample(self, control, history, temperature, noise, generator):
+        """:meth:`sample`'s work: the frames, and with a contact head the contacts drawn for
+        them ``(batch, frames, 4)`` (else None)."""
         control, history = self._check_sampling(control, history)
         batch, frames = control.shape[:2]
         noise = self._noise(noise, (batch, frames, self.n_modelled), generator)
@@ -411,16 +416,22 @@ class MoGlow(DataContacts, FootAnchor, MotionFlow):
         controls = torch.cat([history[..., self.control], control], dim=1)
         units = self.anchor_units() if self.config.foot_anchor else None       # once, not every frame
         carried = self.contact_head.start(batch, history.device) if self.contact_head is not None else None
+        drawn = []
         with eval_mode(self), self.carrying_state():
             for t in range(frames):
                 cond = self.frame_conditioning(self.history_scale * poses[:, -tau:], controls[:, t:t + tau + 1],
                                                poses[:, -1], units)
                 cond, carried = self.draw_contacts(cond, carried, generator)
+                if carried is not None:
+                    drawn.append(carried[0])                              # the state the head drew
+
                 x = self.flow.inverse(temperature * noise[:, t:t + 1], cond)
                 if self.config.foot_anchor:
                     x = self._anchored(x, poses[:, -1:], controls[:, t + tau - 1:t + tau], 1.0, units)
                 poses = torch.cat([poses, x], dim=1)
-        return self.join_features(poses[:, tau:], control)
+        contacts = None if carried is None else (labels_of(torch.stack(drawn, 1)) if drawn
+                                                 else control.new_zeros(batch, 0, N_CONTACTS))
+        return self.join_features(poses[:, tau:], control), contacts
 
     def draw_contacts(self, cond: torch.Tensor, carried, generator: torch.Generator | None = None):
         """With a contact head, one frame's contacts drawn from ``p(c_t | c_<t, cond_t)`` and
@@ -447,8 +458,8 @@ class MoGlow(DataContacts, FootAnchor, MotionFlow):
         frames; the last ``τ`` are the history); see :mod:`motionlab.models.base`.
 
         A recurrent model runs as a :class:`~motionlab.engine.stream.MoGlowStream` (the real-time path; ``n``
-        streams as one batch), a Markov one through :meth:`sample`. With a contact head, a recurrent
-        model's result holds the contacts it drew (``Generated.contacts``).
+        streams as one batch), a Markov one through :meth:`sample`. With a contact head, the result
+        holds the contacts the model drew (``Generated.contacts``).
         """
         n, temperature = self._check_common(n, temperature, seed)
         control = self._control_array(control, n, frames)
@@ -458,7 +469,7 @@ class MoGlow(DataContacts, FootAnchor, MotionFlow):
             control = torch.tensor((control - norm.mean[self.control]) / norm.std[self.control], dtype=torch.float32)
             history = torch.tensor(norm.normalize(history), dtype=torch.float32)
             history[..., self.constant] = 0.0
-            return self._result(self.sample(control, history, temperature, generator=generator_for(seed)))
+            return self._result(*self._sample(control, history, temperature, None, generator_for(seed)))
         stream = self.stream(torch.tensor(history, dtype=torch.float32), temperature, generator_for(seed),
                              self._normalizer())
         control = torch.tensor(control, dtype=torch.float32)
