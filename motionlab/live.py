@@ -45,9 +45,11 @@ INTENTS = ("forward", "back", "left", "right", "side_left", "side_right", "run",
 """What a player can hold down. The panel maps arrows / WASD (turn with left-right, Q / E to
 side-step, Shift to run, Space to stop) and its on-screen pad to these."""
 
-VARIANTS = {"dropout": "moglow", "no dropout": "moglow_no_dropout", "feet anchored": "moglow_foot_anchor"}
+VARIANTS = {"dropout": "moglow", "no dropout": "moglow_no_dropout", "feet anchored": "moglow_foot_anchor",
+            "contact head": "moglow_contacts"}
 """The shipped MoGlow models that stream (recurrent couplings; ``motionlab.pretrained``
-names): notebook 06's panel. The Markov variants of notebook 06 generate with
+names): notebook 06's panel. The one with a contact head draws each frame's contacts, and
+its character's lock holds them as well as the ones it detects. The Markov variants of notebook 06 generate with
 ``MoGlow.sample`` instead, whose conditioning window is rebuilt every frame; they are left
 out of the live panel."""
 
