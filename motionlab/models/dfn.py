@@ -54,9 +54,8 @@ import torch.nn.functional as F
 from torch import nn
 
 from .. import checks
-from . import gaussian
+from . import contact_head, gaussian
 from ..skeleton import LOCOMOTION
-from . import contact_head
 from .base import GenerativeModel, eval_mode
 from .contact_head import N_CONTACTS, ContactHead, DataContacts
 from .dfn_parts import ForwardKinematics, GaussianHead, StagedTraining, mlp, quaternion_to_matrix
@@ -517,8 +516,8 @@ class DFN(DataContacts, StagedTraining, GenerativeModel, nn.Module):
         ``-log N(x_t | x^_t, std^2) - log N(s_t | s^_t, std^2)``
         ``+ KL(q(z_t | x_t, h_t, s_t) || p(z_t | h_t, s^_t)) + KL(q(f_t | h_t, s_t) || p(f_t | h_t))``
         ``+ td_weight * (KL(q_TD(z_t1 | ...) || q(z_t1 | ...)) - log p(z_t2 | z_t1, skip))``
-        ``- log p(c_t | c_<t, h_t, z_t, f_t)`` with a contact head (the data's own contacts;
-        logged as ``contacts``)
+        ``- log p(c_t | c_<t, h_t, f_t)`` with a contact head (the data's own contacts, which
+        the current prior is then given too; logged as ``contacts``)
 
         The skip is drawn uniformly from ``1 .. td_max_skip`` per batch. Logged apart:
         ``x_nll``, ``s_nll``, ``kl_z``, ``kl_f``, ``td`` (nats per step), ``x_mse`` (standardised
@@ -629,7 +628,7 @@ class DFN(DataContacts, StagedTraining, GenerativeModel, nn.Module):
             out = {"frames": motion.to(given_on), "z": stack(zs, c.current).to(given_on),
                    "f": stack(fs, c.future).to(given_on), "x": x.to(given_on)}
             if self.contact_head is not None:
-                out["contacts"] = stack(cs, 4).to(given_on)
+                out["contacts"] = stack(cs, N_CONTACTS).to(given_on)
             return out
         return motion.to(given_on)
 
