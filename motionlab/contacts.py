@@ -260,9 +260,7 @@ class FootLock:
         lock's own guess (:meth:`landing_guess`)."""
         single = np.ndim(frame) == 2
         frame = checks.array(frame[None] if single else frame, "frame", (self.batch, LOCOMOTION.n_joints, 3))
-        if contacts is not None and drawn is not None:
-            raise ValueError("drawn: give the contacts to hold (contacts) or the model's own to add to the "
-                             "detector's (drawn), not both")
+        _one_of(contacts, drawn)
         contact = self._detect(frame) if contacts is None else self._contacts(contacts, single)
         if drawn is not None:
             contact = contact | self._contacts(drawn, single, "drawn")
@@ -444,6 +442,14 @@ def approach_shift(positions, contacts, fps: float, planted_height_m, approach_s
     return shift
 
 
+def _one_of(contacts, drawn) -> None:
+    """``ValueError`` naming ``drawn`` when both are given: ``contacts`` replace the detector's,
+    ``drawn`` (a contact head's) add to them."""
+    if contacts is not None and drawn is not None:
+        raise ValueError("drawn: give the contacts to hold (contacts) or the model's own to add to the "
+                         "detector's (drawn), not both")
+
+
 def lock(positions, fps: float, contacts=None, planted_height_m=None, blend_s: float = BLEND_S,
          approach_s: float = APPROACH_S, drawn=None) -> Locked:
     """:func:`lock_feet`, and what it did (:class:`Locked`). ``approach_s`` (0: none): how
@@ -460,9 +466,7 @@ def lock(positions, fps: float, contacts=None, planted_height_m=None, blend_s: f
                          f"({int(np.ceil(blend * fps))} frames at {fps:g} fps) and at least 2")
     floor = planted_heights(positions) if planted_height_m is None else \
         _per_foot_joint(planted_height_m, "planted_height_m", positive=False)
-    if contacts is not None and drawn is not None:
-        raise ValueError("drawn: give the contacts to hold (contacts) or the model's own to add to the "
-                         "detector's (drawn), not both")
+    _one_of(contacts, drawn)
     contacts = detect(positions, fps, floor) if contacts is None else \
         _contact_array(contacts, positions.shape[:-2] + (4,))
     if drawn is not None:

@@ -49,9 +49,9 @@ VARIANTS = {"dropout": "moglow", "no dropout": "moglow_no_dropout", "feet anchor
             "contact head": "moglow_contacts"}
 """The shipped MoGlow models that stream (recurrent couplings; ``motionlab.pretrained``
 names): notebook 06's panel. The one with a contact head draws each frame's contacts, and
-its character's lock holds them as well as the ones it detects. The Markov variants of notebook 06 generate with
-``MoGlow.sample`` instead, whose conditioning window is rebuilt every frame; they are left
-out of the live panel."""
+its character's lock holds them as well as the ones it detects. The Markov variants of
+notebook 06 generate with ``MoGlow.sample`` instead, whose conditioning window is rebuilt
+every frame; they are left out of the live panel."""
 
 CONTROLLABLE = {"MoGlow": "moglow", "MoGlow (anchored)": "moglow_foot_anchor", "MoGlow (contacts)": "moglow_contacts",
                 "LSTM-3LR": "lstm_control"}

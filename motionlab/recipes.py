@@ -29,6 +29,9 @@ MOTEGI = ("--synthetic-clips", "100", "--stride", "1.0", "--normalization", "sha
 HABIBIE = ("--synthetic-clips", "120", "--epochs", "20", "--lr", "3e-3", "--half")
 """Habibie's VAE-LSTM and its LSTM-3LR baselines: one budget for all four (notebook 04)."""
 
+GLOW = ("--synthetic-clips", "200", "--stride", "1.0", "--epochs", "20", "--lr", "2e-3", "--batch-size", "32", "--half")
+"""Glow for 4-s windows (notebook 05), with and without its contact head."""
+
 MOGLOW = ("--synthetic-clips", "200", "--epochs", "60", "--lr", "3e-3", "--batch-size", "32", "--half")
 """Every MoGlow of notebook 06 (and the anchored one of 08): one budget."""
 
@@ -127,13 +130,9 @@ RECIPES = {recipe.name: recipe for recipe in (
            "to the leg (notebooks 06, 08)"),
     Recipe("moglow_contacts", "moglow_contacts.pt", "moglow", (*MOGLOW, "--set", "contact_head=true"),
            "MoGlow with a contact head: each frame's contacts drawn first, then the pose given them (notebook 08)"),
-    Recipe("glow", "glow.pt", "glow",
-           ("--synthetic-clips", "200", "--stride", "1.0", "--epochs", "20", "--lr", "2e-3", "--batch-size", "32",
-            "--half"),
+    Recipe("glow", "glow.pt", "glow", GLOW,
            "Glow for 4-s windows given their control (notebook 05)"),
-    Recipe("glow_contacts", "glow_contacts.pt", "glow",
-           ("--synthetic-clips", "200", "--stride", "1.0", "--epochs", "20", "--lr", "2e-3", "--batch-size", "32",
-            "--half", "--set", "contact_head=true"),
+    Recipe("glow_contacts", "glow_contacts.pt", "glow", (*GLOW, "--set", "contact_head=true"),
            "the same with a contact head: p(contacts | control), then the pose given both (notebooks 05, 08)"),
     Recipe("dfn", "dfn.pt", "dfn",
            ("--synthetic-clips", "120", "--stride", "0.5", "--stage-epochs", "frame=10", "sequence=10",

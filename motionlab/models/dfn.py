@@ -449,8 +449,7 @@ class DFN(DataContacts, StagedTraining, GenerativeModel, nn.Module):
             s = self.summaries(codes)
         steps = s.shape[1]
         x = codes[:, :steps]
-        labels = None if self.contact_head is None else self.data_contacts(batch)[:, :steps]
-        given = (lambda t: None) if labels is None else (lambda t: labels[:, t])  # noqa: E731
+        labels = None if self.contact_head is None else self.data_contacts(batch)[:, :steps]   # contact head
         state = d.initial_state(batch.shape[0], c.past, batch.device)
         names = ("h", "qf_mu", "qf_log_var", "f", "qz_mu", "qz_log_var", "z")
         out: dict[str, list[torch.Tensor]] = {k: [] for k in names}
@@ -458,6 +457,7 @@ class DFN(DataContacts, StagedTraining, GenerativeModel, nn.Module):
         # decoders make of h, f and z is computed for every step at once after the loop.
         for t in range(steps):
             h = state[-1]
+            c_t = None if labels is None else labels[:, t]
             qf = d.future_posterior(h, s[:, t])                              # eq. 11
             f = gaussian.sample(*qf, generator=generator)
             qz = d.current_posterior(x[:, t], h, s[:, t])                    # eq. 10
@@ -467,11 +467,11 @@ class DFN(DataContacts, StagedTraining, GenerativeModel, nn.Module):
             if self.training and c.prior_feed > 0:                           # see DFNConfig.prior_feed
                 with torch.no_grad():
                     pf = gaussian.sample(*d.future_prior(h), generator=generator)                      # eq. 5
-                    pz = gaussian.sample(*d.current_prior(h, d.summary_decoder(pf), *self._as_input(given(t))),
+                    pz = gaussian.sample(*d.current_prior(h, d.summary_decoder(pf), *self._as_input(c_t)),
                                          generator=generator)                                  # eqs. 6-7
                 feed = torch.rand(h.shape[0], 1, generator=generator, device=h.device) < c.prior_feed
                 f, z = torch.where(feed, pf, f), torch.where(feed, pz, z)
-            state = d.step_past(state, z, f, given(t))                       # eq. 8
+            state = d.step_past(state, z, f, c_t)                            # eq. 8
         result = {k: torch.stack(v, 1) for k, v in out.items()}
         result["pf_mu"], result["pf_log_var"] = d.future_prior(result["h"])           # eq. 5
         result["s_hat"] = d.summary_decoder(result["f"])                               # eq. 6

@@ -424,7 +424,6 @@ class MoGlow(DataContacts, FootAnchor, MotionFlow):
                 cond, carried = self.draw_contacts(cond, carried, generator)
                 if carried is not None:
                     drawn.append(carried[0])                              # the state the head drew
-
                 x = self.flow.inverse(temperature * noise[:, t:t + 1], cond)
                 if self.config.foot_anchor:
                     x = self._anchored(x, poses[:, -1:], controls[:, t + tau - 1:t + tau], 1.0, units)
