@@ -7,13 +7,15 @@ what does it cost?
     python benchmarks/contact_term.py --model vae_lstm dfn --epochs 1 --weights 1    # a smoke run
     python benchmarks/contact_term.py --weights 1 --bone-weights 1 10      # also the bone-length term
     python benchmarks/contact_term.py --weights 1 2 --skeleton             # on the skeleton output layer
+    python benchmarks/contact_term.py --weights 1 --foot-gate --skeleton   # gated feet, on a skeleton
 
 Each model is trained by its recipe of ``make checkpoints`` (the Makefile; the command line
 ``python -m motionlab.train``) without the term and with each weight of ``--weights``
 (``--set contact_weight=W``; defaults :data:`WEIGHTS`, chosen from the term's scale against
 each loss), for the VAE-LSTM and the conv AE also with each of ``--bone-weights`` (``--set bone_weight=W``:
 the squared error of the reconstruction's bone lengths, cm²; default 0, off; with ``--skeleton``
-every VAE-LSTM run has the skeleton output layer, ``--set skeleton=true``), for each of
+every VAE-LSTM run has the skeleton output layer, ``--set skeleton=true``; with ``--foot-gate`` its
+gated feet, ``--set foot_gate=true``), for each of
 ``--seeds`` (the command line's seed: the training clips and the
 first weights), ``--jobs`` trainings at a time in their own processes, their checkpoints and
 logs in ``--out`` (a checkpoint already there is reused). ``--epochs`` changes the
@@ -74,15 +76,17 @@ class Run:
     seed: int
     bone: float = 0.0              # the VAE-LSTM's or the conv AE's bone_weight
     skeleton: bool = False         # the VAE-LSTM's skeleton output layer
+    gate: bool = False             # the VAE-LSTM's gated feet
 
     @property
     def label(self) -> str:
         return {"vae_lstm": "VAE-LSTM", "dfn": "DFN", "conv_ae": "conv AE"}[self.model] \
-            + (" on a skeleton" if self.skeleton else "")
+            + (", feet gated" if self.gate else "") + (" on a skeleton" if self.skeleton else "")
 
     def checkpoint(self, out: Path, epochs: int) -> Path:
         bone = f"_bone{self.bone:g}" if self.bone > 0 else ""
         bone += "_skeleton" if self.skeleton else ""
+        bone += "_gate" if self.gate else ""
         return out / f"{self.model}_contact{self.weight:g}{bone}_seed{self.seed}_epochs{epochs}.pt"
 
     def command(self, epochs: int, device: str, path: Path) -> list[str]:
@@ -90,6 +94,7 @@ class Run:
         weight = [f"contact_weight={self.weight:g}"] if self.weight > 0 else []
         weight += [f"bone_weight={self.bone:g}"] if self.bone > 0 else []
         weight += ["skeleton=true"] if self.skeleton else []
+        weight += ["foot_gate=true"] if self.gate else []
         if self.model == "vae_lstm":
             recipe = ["vae_lstm", "--synthetic-clips", "120", "--epochs", str(epochs), "--lr", "3e-3", "--half",
                       "--set", "observation_std=3.0", *weight]
@@ -282,6 +287,8 @@ def main(argv: list[str] | None = None) -> None:
                              "(default: none)")
     parser.add_argument("--skeleton", action="store_true",
                         help="the VAE-LSTM's runs with its skeleton output layer (--set skeleton=true)")
+    parser.add_argument("--foot-gate", action="store_true",
+                        help="the VAE-LSTM's runs with its gated feet (--set foot_gate=true)")
     parser.add_argument("--seeds", nargs="+", type=int, default=[0], help="seeds of the trainings (default 0)")
     parser.add_argument("--epochs", type=int, default=RECIPE_EPOCHS,
                         help=f"the VAE-LSTM's epochs (default {RECIPE_EPOCHS}, the recipe's); "
@@ -299,14 +306,15 @@ def main(argv: list[str] | None = None) -> None:
             or (args.bone_weights and not set(args.model) <= {"vae_lstm", "conv_ae"}):
         parser.error(f"--bone-weights: expected numbers > 0, with --model vae_lstm or conv_ae only; "
                      f"got {args.bone_weights}")
-    if args.skeleton and args.model != ["vae_lstm"]:
-        parser.error("--skeleton: the VAE-LSTM's option, with --model vae_lstm only")
+    for option in ("skeleton", "foot_gate"):
+        if getattr(args, option) and args.model != ["vae_lstm"]:
+            parser.error(f"--{option.replace('_', '-')}: the VAE-LSTM's option, with --model vae_lstm only")
     if args.epochs < 1 or args.jobs < 1 or (args.threads is not None and args.threads < 1) \
             or any(s < 0 for s in args.seeds):
         parser.error("--epochs, --jobs and --threads: expected whole numbers >= 1; --seeds >= 0")
     args.threads = args.threads or max(1, (os.cpu_count() or 1) // args.jobs)
     args.out.mkdir(parents=True, exist_ok=True)
-    runs = [Run(model, weight, seed, bone, args.skeleton) for model in args.model for seed in args.seeds
+    runs = [Run(model, weight, seed, bone, args.skeleton, args.foot_gate) for model in args.model for seed in args.seeds
             for bone in (0.0, *args.bone_weights) for weight in (0.0, *(args.weights or WEIGHTS[model]))]
     print(f"{len(runs)} trainings on {args.device} ({args.jobs} at a time, {args.threads} CPU thread(s) each), "
           f"{args.epochs} epochs{'' if args.epochs == RECIPE_EPOCHS else f' (the recipe: {RECIPE_EPOCHS})'}; "

@@ -62,6 +62,8 @@ ENTRIES = (Entry("vae", "VAE", "Motegi 2018", control=False, prefix=False, tempe
            Entry("lstm_control", "LSTM-3LR", "Habibie 2017 (baseline)", control=True, prefix=True, temperature=1.0,
                  stochastic=False),
            Entry("vae_lstm", "VAE-LSTM", "Habibie 2017", control=True, prefix=False, temperature=1.0),
+           Entry("vae_lstm_gated", "VAE-LSTM (gated)", "Habibie 2017, feet gated", control=True, prefix=False,
+                 temperature=1.0),
            Entry("glow", "Glow", "Henter 2020 §3", control=True, prefix=False, temperature=0.5, window=80),
            Entry("glow_contacts", "Glow (contacts)", "Henter 2020 §3, contact head", control=True, prefix=False,
                  temperature=0.5, window=80),
@@ -80,7 +82,9 @@ still), the shipped recipe otherwise. "Glow (contacts)" is Glow's recipe with a 
 (``GlowConfig.contact_head``: the feet's contacts drawn first, then the pose given them;
 its test NLL is the joint one at the data's contacts, a bound on the pose's); "MoGlow
 (contacts)" the same for MoGlow, each frame's contacts drawn from its conditioning, so that
-they stream (``MoGlowConfig.contact_head``)."""
+they stream (``MoGlowConfig.contact_head``). "VAE-LSTM (gated)" is the VAE-LSTM's recipe with
+gated feet on a skeleton (``VAELSTMConfig.foot_gate``, ``skeleton``): its decoder holds the feet
+it says are planted where they landed, and every bone keeps one length."""
 
 
 def evaluation_windows(source: str = "synthetic", stride_s: float = 1.0) -> np.ndarray:

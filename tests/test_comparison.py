@@ -47,6 +47,7 @@ def test_respond_refuses_what_a_model_cannot_do():
 def test_entries_say_what_each_model_conditions_on():
     conditions = {e.label: e.conditions for e in comparison.ENTRIES}
     assert conditions == {"VAE": "nothing", "LSTM-3LR": "prefix + control", "VAE-LSTM": "control",
+                          "VAE-LSTM (gated)": "control",
                           "Glow": "control", "Glow (contacts)": "control", "MoGlow": "prefix + control", "MoGlow (anchored)": "prefix + control",
                           "MoGlow (contacts)": "prefix + control", "DFN": "prefix"}
 
@@ -97,14 +98,14 @@ def test_the_table_on_a_few_held_out_windows(shipped):
     assert all(np.isfinite(rows[label]["pose error 3 s (cm)"]) for label in ("MoGlow", "DFN", "VAE-LSTM"))
     kinds = {label: r["test NLL is"] for label, r in rows.items()
              if np.isfinite(r.get("test NLL (bits/frame)", np.nan))}
-    assert kinds == {"VAE": "bound, conv features", "VAE-LSTM": "bound", "Glow": "exact",
+    assert kinds == {"VAE": "bound, conv features", "VAE-LSTM": "bound", "VAE-LSTM (gated)": "bound", "Glow": "exact",
                      "Glow (contacts)": "bound, with contacts", "MoGlow": "exact", "MoGlow (anchored)": "exact",
                      "MoGlow (contacts)": "bound, with contacts"}
     assert rows["VAE-LSTM"]["test NLL (bits/frame)"] > max(rows[f]["test NLL (bits/frame)"] for f in ("Glow", "MoGlow"))
     assert rows["DFN"]["bone drift (%)"] < 0.01                           # the joint-rotation decoder
     long = comparison.long_run(shipped, seconds=10.0, n=2)
-    assert set(long) == {"data", "LSTM-3LR", "VAE-LSTM", "MoGlow", "MoGlow (anchored)", "MoGlow (contacts)",
-                         "DFN"}                                           # not the window models
+    assert set(long) == {"data", "LSTM-3LR", "VAE-LSTM", "VAE-LSTM (gated)", "MoGlow", "MoGlow (anchored)",
+                         "MoGlow (contacts)", "DFN"}                                           # not the window models
     assert long["MoGlow"]["samples"].shape == (2, 201, 66) and len(long["MoGlow"]["pose spread (m)"]) == 2
     speed = {label: {1: 100.0, 64: 1000.0} for label in shipped}
     lines = comparison.table(shipped, rows, long, speed).splitlines()
@@ -123,7 +124,7 @@ def test_one_drawn_path_for_every_controllable_model(shipped):
     assert path.shape == (201, 3) and path[0].max() == 0 and np.abs(path[-1]).max() < 1e-9
     assert path[:, 2].max() > 0.5 and path[:, 0].max() == pytest.approx(1.3)
     steered = comparison.steer_all(shipped, path)
-    assert list(steered) == ["data", "LSTM-3LR", "VAE-LSTM", "MoGlow", "MoGlow (anchored)",
+    assert list(steered) == ["data", "LSTM-3LR", "VAE-LSTM", "VAE-LSTM (gated)", "MoGlow", "MoGlow (anchored)",
                              "MoGlow (contacts)"]                        # Glow: windows; VAE, DFN: no control
     assert all(features.shape == (201, 66) for features in steered.values())
     np.testing.assert_allclose(steered["MoGlow"][:, -3:], steered["data"][:, -3:], atol=1e-4)   # the same path

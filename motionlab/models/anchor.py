@@ -51,6 +51,19 @@ LEG_TARGETS = tuple(f for _, knee, _, toe in LEGS for f in (3 * toe, 3 * toe + 2
 """``leg_anchor``'s outputs: each leg's toe ``x, z`` then knee ``x, y, z`` (left leg first)."""
 
 
+def stayed_put(feet: torch.Tensor, control: torch.Tensor, fps: float) -> torch.Tensor:
+    """Where each ankle and toe is in this frame's root frame had it stayed put in the world
+    since the previous frame, in metres: ``feet`` ``(..., 8)`` the previous frame's root-local
+    ``x`` then ``z`` (:data:`FOOT_XZ` order, metres), ``control`` ``(..., 3)`` its control
+    (sideways and forward m/s, turning rad/s). With ``θ = turning / fps`` and ``s =
+    (sideways, forward) / fps`` (:func:`motionlab.contacts.foot_velocity` inverted, world
+    velocity 0): ``R(θ)^-1 (p - s)``, ``R(θ)^-1 = [[cos θ, -sin θ], [sin θ, cos θ]]`` on ``(x, z)``."""
+    theta = control[..., 2:3] / fps
+    x, z = feet[..., :len(FEET)] - control[..., 1:2] / fps, feet[..., len(FEET):] - control[..., 0:1] / fps
+    cos, sin = torch.cos(theta), torch.sin(theta)
+    return torch.cat([cos * x - sin * z, sin * x + cos * z], dim=-1)
+
+
 def _leg_matrix() -> np.ndarray:
     """``A`` ``(10, 12)``: the shift of :data:`LEG_TARGETS` from :data:`LEG_SOURCES` in metres,
     toe ``x, z`` ← its ankle's, knee ← half its hip plus half its ankle."""
@@ -132,19 +145,12 @@ class FootAnchor:
         ``x`` then ``z``, :data:`FEET` order), from the previous frame's modelled pose
         ``(..., n_modelled)`` and its control ``(..., n_control)`` (normalised).
 
-        In the data's units, with ``θ = turning / fps`` and ``s = (sideways, forward) / fps``
-        the previous frame's step (:func:`motionlab.contacts.foot_velocity` inverted, world
-        velocity 0): ``m = R(θ)^-1 (p_{t-1} - s)``, ``R(θ)^-1 = [[cos θ, -sin θ], [sin θ, cos θ]]``
-        on ``(x, z)``. ``units``: :meth:`anchor_units`, if already at hand."""
+        In the data's units, :func:`stayed_put` of the previous frame's feet and control:
+        ``m = R(θ)^-1 (p_{t-1} - s)``. ``units``: :meth:`anchor_units`, if already at hand."""
         foot_mean, foot_std, control_mean, control_std = (self.anchor_units() if units is None else units)[:4]
         p = previous[..., self.foot_columns].float() * foot_std + foot_mean               # metres
         c = control.float() * control_std + control_mean                                  # m/s, rad/s
-        fps = self.config.fps
-        theta = c[..., 2:3] / fps
-        x, z = p[..., :len(FEET)] - c[..., 1:2] / fps, p[..., len(FEET):] - c[..., 0:1] / fps
-        cos, sin = torch.cos(theta), torch.sin(theta)
-        m = torch.cat([cos * x - sin * z, sin * x + cos * z], dim=-1)
-        return ((m - foot_mean) / foot_std).to(previous.dtype)
+        return ((stayed_put(p, c, self.config.fps) - foot_mean) / foot_std).to(previous.dtype)
 
     def _anchored(self, poses: torch.Tensor, previous: torch.Tensor, control: torch.Tensor,
                   sign: float, units=None) -> torch.Tensor:

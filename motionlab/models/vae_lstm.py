@@ -19,6 +19,9 @@ canvas back into frames at the full rate::
          + contact_weight * mean(planted in X * |world foot velocity in X^|^2)   (HuMoR, EDGE, MDM; off: 0)
          + bone_weight * mean((bone length in X^ - in X)^2, cm^2)                    (ours; off: 0)
     skeleton=True: X^'s bones each one length per sequence (skeleton_output.py)    (ours; off)
+    foot_gate=True: 4 more decoder channels, g_t = P(ankle / toe planted since t-1); each  (ours; off)
+         foot joint's x, z = g_t * where it stayed put + (1 - g_t) * as decoded (a released
+         foot eased back); loss + BCE(g, the data's contact labels)
 
 Generation (§3.4, Algorithm 1) needs only a control signal: ``z_1`` comes from the prior
 (no frames) or from the posterior of the first 4 frames (§4.3), and the cell runs in its
@@ -36,18 +39,25 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 
+import numpy as np
 import torch
 import torch.nn.functional as F
 from torch import nn
 
-from .. import checks
+from .. import checks, contacts
+from ..representation import N_POSE
+from ..skeleton import FEET
 from . import gaussian
+from .anchor import FOOT_XZ, stayed_put
 from .base import Generated, GenerativeModel, check_tensor, eval_mode, generator_for, per_frame_nll
 from .modelcard import NO_CLIP, ModelCard, choice, paper
 from .skeleton_output import SkeletonOutput
 
 POOLING = 4
 """Frames per canvas step: two max-pooling layers, each halving the frame rate (§4.2)."""
+
+N_FEET = len(FEET)
+"""The gate's channels (``foot_gate``): the ankles and toes."""
 
 
 @dataclass(frozen=True)
@@ -86,6 +96,13 @@ class VAELSTMConfig:
         bone_weight: weight of the bone-length term (:meth:`loss`): nats per frame per cm²
             of squared bone-length error; 0 = off (the shipped models).
         skeleton: each bone of the decoder's pose keeps one length (:class:`SkeletonOutput`; ours).
+        foot_gate: the decoder also gives, per frame, the probability that each ankle and toe
+            has stayed planted since the previous frame, trained on the data's contact labels;
+            each foot joint's ``x, z`` is then that share of where it would be had it stayed
+            put in the world and the rest where the decoder put it (:meth:`gate_feet`; ours). In
+            training the share is the probability; at generation a foot is held or not.
+        gate_release_s: with ``foot_gate``, the half-life of how far a released foot still is
+            from where the decoder puts it (0: it jumps there in one frame).
     """
 
     n_pose: int = 63
@@ -107,11 +124,13 @@ class VAELSTMConfig:
     contact_weight: float = 0.0
     bone_weight: float = 0.0
     skeleton: bool = False
+    foot_gate: bool = False
+    gate_release_s: float = 0.1
 
     def __post_init__(self):
         checks.config(self, positive_fields=("observation_std",), probability_fields=("dropout",),
                       non_negative_fields=("l1", "free_running", "control_smoothing_s", "contact_weight",
-                                           "bone_weight"))
+                                           "bone_weight", "gate_release_s"))
         for name in ("n_pose", "n_control", "window", "control_filters", "control_code",
                      "inference_filters", "units", "decoder_filters"):
             if getattr(self, name) < 1:
@@ -122,6 +141,9 @@ class VAELSTMConfig:
             raise ValueError(f"dropout: expected 0 <= p < 1, got {self.dropout}")
         if self.upsample not in ("linear", "nearest"):
             raise ValueError(f"upsample: expected 'linear' or 'nearest', got {self.upsample!r}")
+        if self.foot_gate and (self.n_pose, self.n_control) != (N_POSE, 3):
+            raise ValueError(f"foot_gate: needs the locomotion features ({N_POSE} pose values and 3 controls), "
+                             f"got {self.n_pose} and {self.n_control}")
 
     @property
     def n_features(self) -> int:
@@ -265,7 +287,8 @@ class VAELSTM(GenerativeModel, nn.Module):
         self.inference = ConvEncoder(c.n_pose, (c.inference_filters, 2 * c.units), c.width,
                                      last_activation=False)
         self.cell = ControlledLSTMCell(c.units, c.control_code)
-        self.decoder = CanvasDecoder(c.units, c.decoder_filters, c.n_features, c.width, c.upsample)
+        self.decoder = CanvasDecoder(c.units, c.decoder_filters, c.n_features + N_FEET * c.foot_gate,
+                                     c.width, c.upsample)
         self.skeleton = SkeletonOutput() if c.skeleton else None
 
     # -- checks --------------------------------------------------------------------------
@@ -350,12 +373,90 @@ class VAELSTM(GenerativeModel, nn.Module):
             states.append(previous)
         return torch.stack(states, dim=1)                      # m_c = [c_1 || ... || c_S]
 
-    def decode(self, canvas: torch.Tensor) -> torch.Tensor:
-        """CNN^dec: canvas ``(batch, steps, units)`` -> frames ``(batch, 4 * steps, n_features)``."""
+    def decode(self, canvas: torch.Tensor, control: torch.Tensor | None = None) -> torch.Tensor:
+        """CNN^dec: canvas ``(batch, steps, units)`` -> frames ``(batch, 4 * steps, n_features)``.
+        With ``foot_gate`` the feet are gated along ``control`` ``(batch, 4 * steps, n_control)``
+        (normalised; the control the motion follows), which is then required."""
+        return self._decode(canvas, control)[0]
+
+    def _decode(self, canvas: torch.Tensor, control: torch.Tensor | None) -> tuple[torch.Tensor, torch.Tensor | None]:
+        """:meth:`decode`, and with ``foot_gate`` the gate's logits ``(batch, 4 * steps, 4)`` (else None)."""
         if canvas.ndim != 3 or canvas.shape[-1] != self.config.units:
             raise ValueError(f"canvas: expected (batch, steps, {self.config.units}), got {tuple(canvas.shape)}")
-        frames = self.decoder(canvas)
-        return frames if self.skeleton is None else self.skeleton(frames, self.normalizer)
+        frames, logits = self.decoder(canvas), None
+        if self.config.foot_gate:
+            if control is None or control.shape[:2] != frames.shape[:2]:
+                raise ValueError(f"control: foot_gate needs the control of the {frames.shape[1]} decoded frames, got "
+                                 f"{None if control is None else tuple(control.shape)}")
+            frames, logits = frames[..., :self.config.n_features], frames[..., self.config.n_features:]
+            gate = torch.sigmoid(logits)
+            # Choice: soft while training, so that the gradient reaches the gate through the
+            # pose as well as through its labels; held or not at generation (above 1/2), as
+            # sample(..., gate=True) reports it (measured: a soft gate leaks, and its feet creep)
+            frames = self.gate_feet(frames, gate if self.training else (gate > 0.5).to(gate.dtype), control)
+        return (frames if self.skeleton is None else self.skeleton(frames, self.normalizer)), logits
+
+    def gate_feet(self, frames: torch.Tensor, gate: torch.Tensor, control: torch.Tensor) -> torch.Tensor:
+        """Each ankle's and toe's ``x, z`` in ``frames`` ``(batch, T, n_features)``, frame by
+        frame from the second::
+
+            f_t = g_t · m(f_{t-1}, c_{t-1}) + (1 - g_t) · (d_t + o_t)
+
+        with ``d_t`` where the decoder put it, ``m`` where it would be had it stayed put in the
+        world since the previous frame (:func:`~motionlab.models.anchor.stayed_put`, the
+        flows' foot anchor) and ``g_t`` ``gate`` ``(batch, T, 4)``, the probability that it
+        did (:data:`~motionlab.skeleton.FEET` order). ``control`` ``(batch, T, n_control)``.
+        All normalised; the gate is computed in metres through ``model.normalizer``.
+
+        A planted foot (``g = 1``) then stays where it landed whatever the decoder does, and a
+        swinging one (``g = 0``) is the decoder's, once the offset ``o`` it had from the
+        decoder's foot when released has faded. The offset fades as a critically damped
+        spring (inertialisation, as in motion matching): from ``o`` and its rate ``v`` in the
+        previous frame, ``o(dt) = (o + (v + y o) dt) e^(-y dt)``, ``y = 2 ln 2 /
+        gate_release_s``, so the foot leaves its spot with neither a jump in position nor one
+        in velocity. A hold starts where the foot already is, so the landing has no jump either.
+        Only the ``x, z`` are gated: the decoder keeps the foot's height and the rest of the leg
+        (``skeleton=True`` makes the leg reach the gated ankle). The flows' anchor (``foot_anchor``) holds every frame and lets the
+        flow model the difference; a decoder that is not told where the foot got to would
+        drift by the sum of its errors, so here the hold lasts only as long as the contact."""
+        normalizer = self._normalizer_for("foot_gate")
+        columns = list(FOOT_XZ) + list(range(N_POSE, N_POSE + 3))
+        mean, std = (torch.as_tensor(np.asarray(v)[columns], dtype=torch.float32, device=frames.device)
+                     for v in (normalizer.mean, normalizer.std))
+        decoded = frames[..., list(FOOT_XZ)].float() * std[:8] + mean[:8]                # metres
+        moving = control.float() * std[8:] + mean[8:]                                      # m/s, rad/s
+        g = gate.float().repeat(1, 1, 2)                                                   # x then z
+        dt, release = 1 / self.config.fps, self.config.gate_release_s
+        y = 2 * math.log(2) / release if release > 0 else math.inf
+        decay = math.exp(-y * dt)
+        feet, offsets = [decoded[:, 0]], [torch.zeros_like(decoded[:, 0])] * 2
+        for t in range(1, frames.shape[1]):
+            held = stayed_put(feet[-1], moving[:, t - 1], self.config.fps)
+            o, v = offsets[-1], (offsets[-1] - offsets[-2]) / dt
+            offset = decay * (o + (v + y * o) * dt) if release > 0 else torch.zeros_like(o)
+            feet.append(g[:, t] * held + (1 - g[:, t]) * (decoded[:, t] + offset))
+            offsets = [offsets[-1], feet[-1] - decoded[:, t]]
+        gated = ((torch.stack(feet, dim=1) - mean[:8]) / std[:8]).to(frames.dtype)
+        out = frames.clone()
+        out[..., list(FOOT_XZ)] = gated
+        return out
+
+    def _normalizer_for(self, option: str):
+        if self.normalizer is None:
+            raise ValueError(f"{option}: the feet are gated in the data's units and need the model's normaliser; "
+                             "train with training.train on a MotionData (it sets model.normalizer) or set "
+                             "model.normalizer")
+        return self.normalizer
+
+    def contact_nats(self, logits: torch.Tensor, batch: torch.Tensor) -> torch.Tensor:
+        """The gate's negative log-likelihood of the data's contact labels
+        (:func:`motionlab.contacts.contact_labels`, frame pairs ``t-1, t``), nats per frame
+        summed over the four foot joints: ``logits`` ``(batch, frames, 4)``, ``batch`` the
+        windows ``(batch, frames, n_features)`` (normalised)."""
+        with torch.no_grad():
+            labels = contacts.contact_labels(self._normalizer_for("foot_gate").denormalize(batch.float()),
+                                             self.config.fps)
+        return F.binary_cross_entropy_with_logits(logits[:, 1:].float(), labels, reduction="none").sum(-1).mean()
 
     # -- training ------------------------------------------------------------------------
 
@@ -373,6 +474,7 @@ class VAELSTM(GenerativeModel, nn.Module):
         # unchecked: forward() checks its input, loss() only its shape
         frames = x.shape[1]
         padded = pad_to_canvas(x)
+        given = padded[..., self.config.n_pose:]          # the control the motion follows (the gate's)
         if self.training:
             padded = self.corrupt(padded)
         pose, control = padded[..., :self.config.n_pose], padded[..., self.config.n_pose:]
@@ -380,8 +482,10 @@ class VAELSTM(GenerativeModel, nn.Module):
         mu, log_var = self.posterior(pose)
         z = gaussian.sample(mu, log_var) if sample else mu                           # eq. 3
         canvas = self.canvas(code, z)
-        return {"reconstruction": self.decode(canvas)[:, :frames], "mu": mu, "log_var": log_var,
-                "z": z, "canvas": canvas, "control_code": code}
+        reconstruction, logits = self._decode(canvas, given)
+        return {"reconstruction": reconstruction[:, :frames], "mu": mu, "log_var": log_var,
+                "z": z, "canvas": canvas, "control_code": code, "given_control": given,
+                "gate_logits": None if logits is None else logits[:, :frames]}
 
     def _neg_log_likelihood(self, prediction: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
         """``-log N(target | prediction, std^2 I)`` summed over features: ``(batch, frames)`` nats."""
@@ -412,7 +516,9 @@ class VAELSTM(GenerativeModel, nn.Module):
         there: the training form, and the free-running one times ``free_running`` (the path
         that generates, and whose feet slide). Logged: ``contact`` and ``free_contact``.
         With ``bone_weight > 0``, the same for the bone-length term (:meth:`bone_term`, cm²):
-        logged ``bone`` and ``free_bone``.
+        logged ``bone`` and ``free_bone``. With ``foot_gate``, the gate's negative
+        log-likelihood of the data's contact labels (:meth:`contact_nats`, nats per frame) on
+        each reconstruction, with its weight there: logged ``contacts`` and ``free_contacts``.
         """
         self._check(batch, "x", self.config.n_features, finite=False)   # NaN: the training loop's guard
         out = self._forward(batch)
@@ -423,12 +529,19 @@ class VAELSTM(GenerativeModel, nn.Module):
         terms = {"nll": nll.mean(), "kl": kl.mean(),
                  "mse": F.mse_loss(out["reconstruction"], batch).detach()}
         n_pose, paths = self.config.n_pose, [("", out["reconstruction"], 1.0)]
+        gates = [("", out["gate_logits"], 1.0)]
         if self.config.free_running > 0:
-            free = self.decode(self.canvas(out["control_code"], out["z"][:, :1]))[:, :frames]
+            free, free_logits = self._decode(self.canvas(out["control_code"], out["z"][:, :1]), out["given_control"])
+            free = free[:, :frames]
             free_nll = self._neg_log_likelihood(free, batch).sum(1) / frames
             total = total + self.config.free_running * free_nll.mean()
             terms["free_mse"] = F.mse_loss(free, batch).detach()
             paths.append(("free_", free, self.config.free_running))
+            gates.append(("free_", None if free_logits is None else free_logits[:, :frames], self.config.free_running))
+        for prefix, logits, scale in gates if self.config.foot_gate else ():
+            value = self.contact_nats(logits, batch)
+            total = total + scale * value
+            terms[prefix + "contacts"] = value.detach()
         for name, weight, term in (("contact", self.config.contact_weight, self.contact_term),
                                    ("bone", self.config.bone_weight, self.bone_term)):
             for prefix, reconstruction, scale in paths if weight > 0 else ():
@@ -441,7 +554,7 @@ class VAELSTM(GenerativeModel, nn.Module):
 
     @torch.no_grad()
     def sample(self, control: torch.Tensor, prefix: torch.Tensor | None = None, temperature: float = 1.0,
-               generator: torch.Generator | None = None) -> torch.Tensor:
+               generator: torch.Generator | None = None, gate: bool = False):
         """Motion for a control signal: Algorithm 1, or primed with initial frames (§4.3).
 
         Args:
@@ -452,12 +565,23 @@ class VAELSTM(GenerativeModel, nn.Module):
                 from the posterior of its first canvas step (4 frames = one step, §4.3).
             temperature: scales ``z_1``'s standard deviation (0: the mean).
             generator: a ``torch.Generator`` for reproducible samples.
+            gate: with ``foot_gate``, also return each frame's probability that each ankle and
+                toe is planted, ``(batch, frames, 4)`` (:data:`~motionlab.skeleton.FEET`
+                order; a foot is held where it is above one half; the first frame's is the second's).
 
         Returns ``(batch, frames, n_features)`` normalised features for the control's
         frames (with a prefix, the first ``k`` are the model's rendering of it); the control
         columns are the given ``control`` (the model follows it; its own reconstruction of
-        the control is only a training target).
+        the control is only a training target). With ``gate=True``, ``(features, planted)``.
         """
+        if gate and not self.config.foot_gate:
+            raise ValueError("gate: this VAE-LSTM has no gated feet (VAELSTMConfig.foot_gate)")
+        features, planted = self._sample(control, prefix, temperature, generator)
+        return (features, planted) if gate else features
+
+    @torch.no_grad()
+    def _sample(self, control, prefix, temperature, generator) -> tuple[torch.Tensor, torch.Tensor | None]:
+        """:meth:`sample`, and with ``foot_gate`` its planted probabilities (else None)."""
         self._check(control, "control", self.config.n_control)
         batch, frames = control.shape[:2]
         with eval_mode(self):
@@ -471,8 +595,12 @@ class VAELSTM(GenerativeModel, nn.Module):
                 mu, log_var = self.posterior(pad_to_canvas(prefix[..., :self.config.n_pose]))
                 mu, log_var = mu[:, :1], log_var[:, :1]
             z1 = gaussian.sample(mu, log_var, temperature, generator)
-            motion = self.decode(self.canvas(code, z1))[:, :frames]
-        return torch.cat([motion[..., :self.config.n_pose], control], dim=-1)
+            motion, logits = self._decode(self.canvas(code, z1), pad_to_canvas(control))
+        planted = None
+        if logits is not None:
+            planted = torch.sigmoid(logits[:, :frames])
+            planted = torch.cat([planted[:, 1:2], planted[:, 1:]], dim=1) if frames > 1 else planted
+        return torch.cat([motion[:, :frames, :self.config.n_pose], control], dim=-1), planted
 
     def generate(self, control=None, *, frames=None, prefix=None, n=1, temperature=1.0, seed=0) -> Generated:
         """Follow the ``control`` path (required); see :mod:`motionlab.models.base`.
@@ -480,6 +608,9 @@ class VAELSTM(GenerativeModel, nn.Module):
         The output has the control's frames. Without a ``prefix`` the first latent comes from
         the prior (Algorithm 1); with one (``k >= 4`` real frames) from its posterior (§4.3),
         and the first ``k`` frames of the result are the model's rendering of the prefix.
+        With ``foot_gate`` the model holds its planted feet itself, so ``contacts`` stays None
+        (it is what a lock should hold besides what it detects); ``sample(..., gate=True)``
+        gives where the gate held them.
         """
         n, temperature = self._check_common(n, temperature, seed)
         control = self._normalized_control(control, n, frames)
@@ -500,7 +631,8 @@ class VAELSTM(GenerativeModel, nn.Module):
         with eval_mode(self):
             code = self.encode_control(padded[..., self.config.n_pose:])
             mu, _ = self.posterior(padded[..., :self.config.n_pose])
-            return self.decode(self.canvas(code, mu[:, :1] if free_running else mu))[:, :x.shape[1]]
+            return self.decode(self.canvas(code, mu[:, :1] if free_running else mu),
+                               padded[..., self.config.n_pose:])[:, :x.shape[1]]
 
     # -- likelihood ----------------------------------------------------------------------
 
@@ -544,7 +676,8 @@ class VAELSTM(GenerativeModel, nn.Module):
             reconstruction = windows.new_zeros(len(windows))
             for _ in range(samples):
                 z1 = gaussian.sample(mu, log_var, generator=generator)                  # eq. 3
-                motion = self.decode(self.canvas(code, z1))[:, :frames, scored]         # test-time form
+                motion = self.decode(self.canvas(code, z1), padded[..., self.config.n_pose:])   # test-time form
+                motion = motion[:, :frames, scored]
                 reconstruction += self._neg_log_likelihood(motion, pose).sum(1) / samples
         return per_frame_nll(float((reconstruction + kl).mean()) / frames, normalizer, scored)
 
@@ -582,7 +715,8 @@ class VAELSTM(GenerativeModel, nn.Module):
                  tuple(out["control_code"].shape)),
                 (f"LSTM cell over {out['canvas'].shape[1]} steps: the motion canvas",
                  tuple(out["canvas"].shape)),
-                (f"decoder: upsample, conv, ELU, upsample, conv (then cropped{', skeleton layer' * c.skeleton})",
+                (f"decoder: upsample, conv, ELU, upsample, conv (then cropped{', feet gated' * c.foot_gate}"
+                 f"{', skeleton layer' * c.skeleton})",
                  tuple(out["reconstruction"].shape))]
 
 
