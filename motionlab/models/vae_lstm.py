@@ -101,8 +101,10 @@ class VAELSTMConfig:
             each foot joint's ``x, z`` is then that share of where it would be had it stayed
             put in the world and the rest where the decoder put it (:meth:`gate_feet`; ours). In
             training the share is the probability; at generation a foot is held or not.
-        gate_release_s: with ``foot_gate``, the half-life of how far a released foot still is
-            from where the decoder puts it (0: it jumps there in one frame).
+        gate_release_s: with ``foot_gate``, how fast a released foot eases back to where the
+            decoder puts it: the critically damped offset's rate ``y = 2 ln 2 / gate_release_s``
+            (from rest, at 0.1 s half the offset is left after about 0.14 s and almost none
+            after 0.35 s; 0: it jumps there in one frame).
     """
 
     n_pose: int = 63
@@ -609,8 +611,8 @@ class VAELSTM(GenerativeModel, nn.Module):
         the prior (Algorithm 1); with one (``k >= 4`` real frames) from its posterior (§4.3),
         and the first ``k`` frames of the result are the model's rendering of the prefix.
         With ``foot_gate`` the model holds its planted feet itself, so ``contacts`` stays None
-        (it is what a lock should hold besides what it detects); ``sample(..., gate=True)``
-        gives where the gate held them.
+        (``contacts`` is what a lock would hold beyond what it detects; this model has held
+        them already); ``sample(..., gate=True)`` gives the gate's probabilities.
         """
         n, temperature = self._check_common(n, temperature, seed)
         control = self._normalized_control(control, n, frames)
