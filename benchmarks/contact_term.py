@@ -7,6 +7,7 @@ what does it cost?
     python benchmarks/contact_term.py --model vae_lstm dfn --epochs 1 --weights 1    # a smoke run
     python benchmarks/contact_term.py --weights 1 --bone-weights 1 10      # also the bone-length term
     python benchmarks/contact_term.py --weights 1 2 --skeleton             # on the skeleton output layer
+    python benchmarks/contact_term.py --model conv_ae --weights 1 --skeleton   # the conv AE's, likewise
     python benchmarks/contact_term.py --weights 1 --foot-gate --skeleton   # gated feet, on a skeleton
 
 Each model is trained by its recipe of ``make checkpoints`` (the Makefile; the command line
@@ -14,14 +15,15 @@ Each model is trained by its recipe of ``make checkpoints`` (the Makefile; the c
 (``--set contact_weight=W``; defaults :data:`WEIGHTS`, chosen from the term's scale against
 each loss), for the VAE-LSTM and the conv AE also with each of ``--bone-weights`` (``--set bone_weight=W``:
 the squared error of the reconstruction's bone lengths, cm²; default 0, off; with ``--skeleton``
-every VAE-LSTM run has the skeleton output layer, ``--set skeleton=true``; with ``--foot-gate`` its
+every VAE-LSTM or conv AE run has the skeleton output layer, ``--set skeleton=true``; with ``--foot-gate`` the VAE-LSTM's
 gated feet, ``--set foot_gate=true``), for each of
 ``--seeds`` (the command line's seed: the training clips and the
 first weights), ``--jobs`` trainings at a time in their own processes, their checkpoints and
 logs in ``--out`` (a checkpoint already there is reused). ``--epochs`` changes the
 VAE-LSTM's 20 epochs, and DFN's 10 / 10 / 20 and the conv AE's 40 in the same proportion.
-``--model conv_ae`` trains Motegi's conv autoencoder (notebook 03's recipe; its decoder is
-also the VAE's) and measures its reconstructions of the held-out windows.
+``--model conv_ae`` trains Motegi's conv autoencoder (notebook 03's recipe, whose decoder is
+also the VAE's, with ``--skeleton``; without it, the free decoder shipped before) and measures
+its reconstructions of the held-out windows.
 
 Then, per run, on the held-out built-in windows of notebook 08's table
 (``comparison.table_rows``: one sample per window, 3.5 s judged; the data's planted foot
@@ -75,7 +77,7 @@ class Run:
     weight: float
     seed: int
     bone: float = 0.0              # the VAE-LSTM's or the conv AE's bone_weight
-    skeleton: bool = False         # the VAE-LSTM's skeleton output layer
+    skeleton: bool = False         # the skeleton output layer (the VAE-LSTM's or the conv AE's)
     gate: bool = False             # the VAE-LSTM's gated feet
 
     @property
@@ -98,7 +100,7 @@ class Run:
         if self.model == "vae_lstm":
             recipe = ["vae_lstm", "--synthetic-clips", "120", "--epochs", str(epochs), "--lr", "3e-3", "--half",
                       "--set", "observation_std=3.0", *weight]
-        elif self.model == "conv_ae":                 # Motegi's conv AE, notebook 03's (40 epochs: twice 20)
+        elif self.model == "conv_ae":                 # Motegi's conv AE, notebook 03's with --skeleton (40 epochs: twice 20)
             recipe = ["conv_ae", "--synthetic-clips", "100", "--stride", "1.0", "--normalization", "shared_pose",
                       "--epochs", str(2 * epochs), "--lr", "2e-3", "--half",
                       "--set", "depool=linear", "input_dropout=0.0", "l1=0.0", *weight]
@@ -214,7 +216,7 @@ def conv_ae_row(run: Run, checkpoint, windows: np.ndarray, rest: np.ndarray) -> 
         errors[name] = tuple(metrics.window_errors(trivial, truth, FPS).values())
     verdict = claims.beats_trivial_reconstructions(errors, "conv AE")
     r = metrics.locomotion_report(features, FPS, rest)
-    print(f"| conv AE (reconstructions) | {run.weight:g} | {run.bone:g} | {run.seed} | {checkpoint.history.seconds:.0f} "
+    print(f"| {run.label} (reconstructions) | {run.weight:g} | {run.bone:g} | {run.seed} | {checkpoint.history.seconds:.0f} "
           f"| {term:.3f} "
           f"| {100 * r['foot skating (m/s)']:.1f} | {locked_skating(features, rest):.1f} "
           f"| pose {100 * errors['conv AE'][0]:.2f} | | | {100 * r['bone drift']:.2f} | n/a | n/a "
@@ -286,7 +288,8 @@ def main(argv: list[str] | None = None) -> None:
                         help="bone-length weights (> 0) besides 0, the VAE-LSTM and the conv AE only "
                              "(default: none)")
     parser.add_argument("--skeleton", action="store_true",
-                        help="the VAE-LSTM's runs with its skeleton output layer (--set skeleton=true)")
+                        help="the VAE-LSTM's or the conv AE's runs with the skeleton output layer "
+                             "(--set skeleton=true)")
     parser.add_argument("--foot-gate", action="store_true",
                         help="the VAE-LSTM's runs with its gated feet (--set foot_gate=true)")
     parser.add_argument("--seeds", nargs="+", type=int, default=[0], help="seeds of the trainings (default 0)")
@@ -306,9 +309,10 @@ def main(argv: list[str] | None = None) -> None:
             or (args.bone_weights and not set(args.model) <= {"vae_lstm", "conv_ae"}):
         parser.error(f"--bone-weights: expected numbers > 0, with --model vae_lstm or conv_ae only; "
                      f"got {args.bone_weights}")
-    for option in ("skeleton", "foot_gate"):
-        if getattr(args, option) and args.model != ["vae_lstm"]:
-            parser.error(f"--{option.replace('_', '-')}: the VAE-LSTM's option, with --model vae_lstm only")
+    if args.skeleton and not set(args.model) <= {"vae_lstm", "conv_ae"}:
+        parser.error("--skeleton: the VAE-LSTM's and the conv AE's option, with --model vae_lstm or conv_ae only")
+    if args.foot_gate and args.model != ["vae_lstm"]:
+        parser.error("--foot-gate: the VAE-LSTM's option, with --model vae_lstm only")
     if args.epochs < 1 or args.jobs < 1 or (args.threads is not None and args.threads < 1) \
             or any(s < 0 for s in args.seeds):
         parser.error("--epochs, --jobs and --threads: expected whole numbers >= 1; --seeds >= 0")

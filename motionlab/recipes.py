@@ -97,8 +97,9 @@ class Recipe:
 
 RECIPES = {recipe.name: recipe for recipe in (
     Recipe("conv_ae", "conv_ae.pt", "conv_ae",
-           (*MOTEGI, "--set", "depool=linear", "input_dropout=0.0", "l1=0.0", "--epochs", "40", "--lr", "2e-3"),
-           "Motegi's temporal conv autoencoder (notebooks 02 and 03)"),
+           (*MOTEGI, "--set", "depool=linear", "input_dropout=0.0", "l1=0.0", "skeleton=true", "--epochs", "40",
+            "--lr", "2e-3"),
+           "Motegi's temporal conv autoencoder, its decoder on a skeleton (notebook 03)"),
     Recipe("vae", "vae.pt", "vae",
            ("--conv-ae", "{folder}/conv_ae.pt", *MOTEGI, "--set", "latent=16", "beta=32.0", "--epochs", "60",
             "--lr", "1e-3"),

@@ -1,14 +1,17 @@
-"""The skeleton output layer (``models/skeleton_output.py``) and the VAE-LSTM's ``skeleton``
-option: in each sequence every bone keeps one length (its mean over the frames), directions
+"""The skeleton output layer (``models/skeleton_output.py``) and the VAE-LSTM's and the conv
+autoencoder's ``skeleton`` option: in each sequence every bone keeps one length (its mean over the frames), directions
 and hips are the decoder's, the legs reach the decoder's ankles by IK, each sequence keeps
 its own body size, a pose already on a
-skeleton passes unchanged, and a model with it trains and generates bones that do not stretch."""
+skeleton passes unchanged, and a model with it trains and generates bones that do not stretch
+(for the conv AE, also what it decodes from features no window gave, as the VAE's samples)."""
 import numpy as np
 import pytest
 import torch
 
-from motionlab import contacts, metrics, training
+from motionlab import contacts, data, metrics, training
+from motionlab.models.conv_ae import ConvAEConfig, ConvAutoencoder
 from motionlab.models.skeleton_output import SkeletonOutput, reach
+from motionlab.models.vae import FeatureVAE, MotionVAE, VAEConfig
 from motionlab.models.vae_lstm import VAELSTMConfig
 from motionlab.representation import N_POSE, to_positions
 from motionlab.skeleton import LOCOMOTION
@@ -133,14 +136,16 @@ def test_a_vae_lstm_on_a_skeleton_trains_and_generates_bones_that_do_not_stretch
     assert drift["free"] > 100 * drift["skeleton"]                    # the same model without it stretches
 
 
-def test_a_checkpoint_keeps_the_option(tmp_path, prepared):
-    model = vae_lstm(prepared, 0.0, skeleton=True)
-    path = tmp_path / "vae_lstm.pt"
+@pytest.mark.parametrize("name", ["vae_lstm", "conv_ae"])
+def test_a_checkpoint_keeps_the_option(tmp_path, prepared, name):
+    model = vae_lstm(prepared, 0.0, skeleton=True) if name == "vae_lstm" else conv_ae(prepared, skeleton=True)
+    path = tmp_path / f"{name}.pt"
     training.save_checkpoint(path, model, prepared)
     loaded = training.load_checkpoint(path).model
     assert loaded.config.skeleton is True
     x = prepared.val.windows[:2]
-    torch.testing.assert_close(loaded.reconstruct(x), model.reconstruct(x))
+    rebuild = (lambda m: m.reconstruct(x)) if name == "vae_lstm" else (lambda m: m.project(x))
+    torch.testing.assert_close(rebuild(loaded), rebuild(model))
 
 
 @pytest.mark.parametrize("distance", [0.0, 0.5, 1.5, 1.5 + 1e-9, 3.0])    # on the hip, bent, straight, beyond
@@ -153,3 +158,44 @@ def test_the_torch_ik_has_finite_gradients_at_any_reach(distance):
     (new_knee.sum() + new_ankle.sum()).backward()
     assert all(torch.isfinite(t).all() for t in (new_knee, new_ankle, target.grad, thigh.grad, shin.grad))
     assert (new_ankle - hip).norm() <= 1.5 + 1e-9                        # never beyond the leg's length
+
+
+# ------------------------------------------------------- the conv autoencoder's option (and the VAE's samples)
+
+def conv_ae(prepared, **changes) -> ConvAutoencoder:
+    torch.manual_seed(0)
+    model = ConvAutoencoder(ConvAEConfig(window=16, filters=8, width=5, input_dropout=0.0, **changes))
+    model.normalizer = prepared.normalizer
+    return model
+
+
+def test_the_conv_ae_option_is_off_by_default_and_refuses_what_it_cannot_serve(prepared):
+    assert ConvAEConfig().skeleton is False and conv_ae(prepared).skeleton is None
+    with pytest.raises(ValueError, match="skeleton: needs the 66 locomotion features"):
+        ConvAEConfig(n_features=58, skeleton=True)
+    model = conv_ae(prepared, skeleton=True)
+    model.normalizer = None
+    with pytest.raises(ValueError, match="normalizer"):
+        model(prepared.train.windows[:2])
+    assert model.trace(prepared.train.windows[:2])[-1][0].startswith("put onto a skeleton")
+
+
+def test_a_conv_ae_on_a_skeleton_trains_and_decodes_bones_that_do_not_stretch(prepared):
+    config = training.TrainConfig(epochs=100, max_steps=40, lr=3e-3, batch_size=16, progress=False)
+    drift = {}
+    for name, model in (("free", conv_ae(prepared)), ("skeleton", conv_ae(prepared, skeleton=True))):
+        history = training.train(model, prepared, config)
+        assert history.train[-1]["loss"] < history.train[0]["loss"]
+        rebuilt = in_metres(model.project(prepared.val.windows), prepared.normalizer)
+        drift[name] = metrics.bone_length_drift(rebuilt)
+        # features no window encodes to (as the VAE's samples are): still one length per bone
+        y = torch.randn(3, 8, 8, generator=torch.Generator().manual_seed(1)).abs()
+        with torch.no_grad():
+            drift[name, "decoded"] = metrics.bone_length_drift(in_metres(model.decode(y), prepared.normalizer))
+        if name == "skeleton":
+            vae = FeatureVAE(VAEConfig(n_inputs=8 * 8, hidden=16, latent=2))
+            features = model.encode(prepared.train.windows).flatten(1).detach()
+            motion_vae = MotionVAE(vae, model, data.Normalizer.fit(features.numpy()), prepared.normalizer)
+            drift[name, "sampled"] = metrics.bone_length_drift(motion_vae.generate(n=3, seed=0).positions)
+    assert max(drift["skeleton"], drift["skeleton", "decoded"], drift["skeleton", "sampled"]) < 1e-4
+    assert drift["free"] > 100 * drift["skeleton"] and drift["free", "decoded"] > 0.01

@@ -14,6 +14,10 @@ input (training the autoencoder to *denoise*, which is what makes projecting cor
 motion back onto the manifold work), the choice of depooling, and an L1 penalty on the
 weights. Tensors are ``(batch, frames, features)`` outside; the convolutions transpose
 to ``(batch, channels, frames)`` inside.
+
+One option of ours: ``skeleton=True`` puts the decoder's joints onto a skeleton (each bone
+one length per window, :class:`~motionlab.models.skeleton_output.SkeletonOutput`), so that
+nothing decoded from the manifold, the VAE's samples included, stretches a bone.
 """
 from __future__ import annotations
 
@@ -27,6 +31,7 @@ from .. import checks
 from ..representation import N_POSE
 from .base import bone_term, check_tensor, contact_term, eval_mode
 from .modelcard import NO_CLIP, ModelCard, choice, paper
+from .skeleton_output import SkeletonOutput
 
 
 @dataclass(frozen=True)
@@ -52,6 +57,11 @@ class ConvAEConfig:
             shipped model).
         bone_weight: weight of the bone-length term (:meth:`ConvAutoencoder.loss`), per cm²
             of squared bone-length error; 0 = off (the shipped model).
+        skeleton: the decoder's pose put onto a skeleton, each bone one length per window
+            (:class:`~motionlab.models.skeleton_output.SkeletonOutput`: bone directions
+            the decoder's, the legs reaching its ankles by two-bone IK); ours, off by default,
+            on in the shipped model (``motionlab/recipes.py``). Needs the 66 locomotion
+            features and ``model.normalizer``.
     """
 
     n_features: int = 66
@@ -65,6 +75,7 @@ class ConvAEConfig:
     l1: float = 1e-5
     contact_weight: float = 0.0
     bone_weight: float = 0.0
+    skeleton: bool = False
 
     def __post_init__(self):
         checks.config(self, non_negative_fields=("input_noise", "l1", "contact_weight", "bone_weight"),
@@ -77,6 +88,8 @@ class ConvAEConfig:
             raise ValueError(f"depool: expected 'nearest', 'linear' or 'unpool', got {self.depool!r}")
         if not 0 <= self.input_dropout < 1:
             raise ValueError(f"input_dropout: expected 0 <= p < 1, got {self.input_dropout}")
+        if self.skeleton and self.n_features != N_POSE + 3:
+            raise ValueError(f"skeleton: needs the {N_POSE + 3} locomotion features, got n_features={self.n_features}")
 
     @classmethod
     def paper(cls, **changes) -> "ConvAEConfig":
@@ -103,6 +116,7 @@ class ConvAutoencoder(nn.Module):
         self.encoder = nn.Conv1d(config.n_features, config.filters, config.width, padding=pad, padding_mode="replicate")
         # W', b': back from the manifold to every feature
         self.decoder = nn.Conv1d(config.filters, config.n_features, config.width, padding=pad, padding_mode="replicate")
+        self.skeleton = SkeletonOutput() if config.skeleton else None
 
     def _check(self, x: torch.Tensor, name: str = "x", even: bool = True, finite: bool = True) -> None:
         """Refuse anything but a (finite) tensor ``(batch, frames, n_features)`` (even frames if ``even``)."""
@@ -165,7 +179,8 @@ class ConvAutoencoder(nn.Module):
             upsampled = F.interpolate(y, scale_factor=2, mode="linear", align_corners=False)
         else:
             upsampled = F.interpolate(y, scale_factor=2, mode="nearest")
-        return self.decoder(upsampled).transpose(1, 2)
+        out = self.decoder(upsampled).transpose(1, 2)
+        return out if self.skeleton is None else self.skeleton(out, getattr(self, "normalizer", None))
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         """Reconstruct ``x`` ``(batch, frames, n_features)`` through the manifold."""
@@ -226,7 +241,9 @@ class ConvAutoencoder(nn.Module):
                 ("ReLU + max pool over 2 frames: the manifold", tuple(pooled.shape)),
                 ("depool: twice the frames again", tuple(up.shape)),
                 (f"conv back to {self.config.n_features} features", tuple(out.shape)),
-                ("transposed back (batch, frames, features)", tuple(out.transpose(1, 2).shape))]
+                ("transposed back (batch, frames, features)", tuple(out.transpose(1, 2).shape))] \
+            + [("put onto a skeleton: every bone one length per window", tuple(out.transpose(1, 2).shape))] \
+            * (self.skeleton is not None)
 
 
 # ------------------------------------------------------------------------ training, as the paper says
