@@ -36,6 +36,7 @@ import torch
 
 from ..contacts import LEGS
 from ..skeleton import FEET, LOCOMOTION
+from .base import normalizer_for
 
 FOOT_XZ = tuple(3 * j + axis for axis in (0, 2) for j in FEET)
 """The root-local ``x`` then ``z`` features of the ankles and toes (:data:`FEET` order)."""
@@ -120,15 +121,12 @@ class FootAnchor:
         device: the mean and std of the feet's ``x, z`` features (``(8,)``, :data:`FOOT_XZ`
         order) and of the control (``(3,)``); with ``leg_anchor`` also ``W`` ``(12, 10)`` and
         ``b`` ``(10,)``, the legs' shift in normalised units (``sources @ W + b``)."""
-        if self.normalizer is None:
-            raise ValueError("foot_anchor: the shift is measured in the data's units and needs the model's "
-                             "normaliser; train with training.train on a MotionData (it sets model.normalizer) "
-                             "or set model.normalizer")
+        normalizer = normalizer_for(self, "foot_anchor", "the shift is measured")
         columns = list(FOOT_XZ) + list(range(self.config.n_features)[self.control])
         legs = self.config.leg_anchor
         columns += list(LEG_SOURCES + LEG_TARGETS) if legs else []
         mean, std = (torch.as_tensor(np.asarray(values)[columns], dtype=torch.float32, device=self.modelled.device)
-                     for values in (self.normalizer.mean, self.normalizer.std))
+                     for values in (normalizer.mean, normalizer.std))
         n, c = len(FOOT_XZ), len(FOOT_XZ) + self.config.n_control
         units = (mean[:n], std[:n], mean[n:c], std[n:c])
         if not legs:

@@ -127,13 +127,20 @@ def generator_for(seed) -> torch.Generator:
     return torch.Generator().manual_seed(checks.whole(seed, "seed", 0))
 
 
-def _in_data_units(model, term: str, *tensors: torch.Tensor) -> list[torch.Tensor]:
-    """Normalised tensors back in the data's units through ``model.normalizer`` (float32)."""
+def normalizer_for(model, option: str, what: str):
+    """``model.normalizer``, or a ``ValueError`` naming ``option``, whose ``what`` (e.g. "the
+    contact term measures the body") works in the data's units."""
     normalizer = getattr(model, "normalizer", None)
     if normalizer is None:
-        raise ValueError(f"{term}: {type(model).__name__}'s {term.split('_')[0]} term measures the body in the "
-                         "data's units and needs its normaliser; train with training.train on a MotionData "
-                         "(it sets model.normalizer) or set model.normalizer")
+        raise ValueError(f"{option}: {what} in the data's units and needs {type(model).__name__}'s normaliser; "
+                         "train with training.train on a MotionData (it sets model.normalizer) or set "
+                         "model.normalizer")
+    return normalizer
+
+
+def _in_data_units(model, term: str, *tensors: torch.Tensor) -> list[torch.Tensor]:
+    """Normalised tensors back in the data's units through ``model.normalizer`` (float32)."""
+    normalizer = normalizer_for(model, term, f"the {term.split('_')[0]} term measures the body")
     return [normalizer.denormalize(t.float()) for t in tensors]
 
 

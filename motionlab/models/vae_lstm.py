@@ -49,7 +49,8 @@ from ..representation import N_POSE
 from ..skeleton import FEET
 from . import gaussian
 from .anchor import FOOT_XZ, stayed_put
-from .base import Generated, GenerativeModel, check_tensor, eval_mode, generator_for, per_frame_nll
+from .base import (Generated, GenerativeModel, check_tensor, eval_mode, generator_for, normalizer_for,
+                   per_frame_nll)
 from .modelcard import NO_CLIP, ModelCard, choice, paper
 from .skeleton_output import SkeletonOutput
 
@@ -421,12 +422,13 @@ class VAELSTM(GenerativeModel, nn.Module):
         (``skeleton=True`` makes the leg reach the gated ankle). The flows' anchor (``foot_anchor``) holds every frame and lets the
         flow model the difference; a decoder that is not told where the foot got to would
         drift by the sum of its errors, so here the hold lasts only as long as the contact."""
-        normalizer = self._normalizer_for("foot_gate")
+        normalizer = normalizer_for(self, "foot_gate", "the feet are gated")
         columns = list(FOOT_XZ) + list(range(N_POSE, N_POSE + 3))
         mean, std = (torch.as_tensor(np.asarray(v)[columns], dtype=torch.float32, device=frames.device)
                      for v in (normalizer.mean, normalizer.std))
-        decoded = frames[..., list(FOOT_XZ)].float() * std[:8] + mean[:8]                # metres
-        moving = control.float() * std[8:] + mean[8:]                                      # m/s, rad/s
+        n = len(FOOT_XZ)
+        decoded = frames[..., list(FOOT_XZ)].float() * std[:n] + mean[:n]                # metres
+        moving = control.float() * std[n:] + mean[n:]                                      # m/s, rad/s
         g = gate.float().repeat(1, 1, 2)                                                   # x then z
         dt, release = 1 / self.config.fps, self.config.gate_release_s
         y = 2 * math.log(2) / release if release > 0 else math.inf
@@ -438,17 +440,10 @@ class VAELSTM(GenerativeModel, nn.Module):
             offset = decay * (o + (v + y * o) * dt) if release > 0 else torch.zeros_like(o)
             feet.append(g[:, t] * held + (1 - g[:, t]) * (decoded[:, t] + offset))
             offsets = [offsets[-1], feet[-1] - decoded[:, t]]
-        gated = ((torch.stack(feet, dim=1) - mean[:8]) / std[:8]).to(frames.dtype)
+        gated = ((torch.stack(feet, dim=1) - mean[:n]) / std[:n]).to(frames.dtype)
         out = frames.clone()
         out[..., list(FOOT_XZ)] = gated
         return out
-
-    def _normalizer_for(self, option: str):
-        if self.normalizer is None:
-            raise ValueError(f"{option}: the feet are gated in the data's units and need the model's normaliser; "
-                             "train with training.train on a MotionData (it sets model.normalizer) or set "
-                             "model.normalizer")
-        return self.normalizer
 
     def contact_nats(self, logits: torch.Tensor, batch: torch.Tensor) -> torch.Tensor:
         """The gate's negative log-likelihood of the data's contact labels
@@ -456,7 +451,8 @@ class VAELSTM(GenerativeModel, nn.Module):
         summed over the four foot joints: ``logits`` ``(batch, frames, 4)``, ``batch`` the
         windows ``(batch, frames, n_features)`` (normalised)."""
         with torch.no_grad():
-            labels = contacts.contact_labels(self._normalizer_for("foot_gate").denormalize(batch.float()),
+            labels = contacts.contact_labels(normalizer_for(self, "foot_gate", "the contact labels are measured")
+                                             .denormalize(batch.float()),
                                              self.config.fps)
         return F.binary_cross_entropy_with_logits(logits[:, 1:].float(), labels, reduction="none").sum(-1).mean()
 
