@@ -12,7 +12,8 @@ A folder of motion capture (``--data``): the same recipes as ``make checkpoints`
 command line, ``python -m motionlab.train``), each for as many training steps as the
 shipped model took, train each model on the folder's training clips, with 1-s windows as
 the notebooks use for CMU's short trials, cached in
-``data/cache/quality/``; they are measured on the folder's test clips. On real data the
+``data/cache/quality/`` (each file named by its command line, so that a recipe changed since
+trains again); they are measured on the folder's test clips. On real data the
 targets are reported, not required.
 
 Both use the measures of ``motionlab.metrics`` and the claim checks of ``motionlab.claims``
@@ -38,12 +39,13 @@ the folder's clips, as notebook 08 does with ``MOTIONLAB_DATA`` set.
 from __future__ import annotations
 
 import argparse
+import hashlib
 from pathlib import Path
 
 import numpy as np
 import torch
 
-from motionlab import claims, comparison, contacts, data, experiments, metrics, pretrained, training
+from motionlab import claims, comparison, contacts, data, experiments, metrics, pretrained, recipes, training
 from motionlab import train as cli
 from motionlab.models.vae import axis_effects
 from motionlab.representation import to_positions
@@ -62,13 +64,24 @@ MOGLOW_TARGETS = {"stepping": 0.2, "leg swing": 0.8, "skating": 2.0, "bone drift
 REAL_STEER_S = 3.0
 DFN_PREFIXES, DFN_SAMPLES, DFN_PREFIX_FRAMES = 8, 16, 10    # 8 held-out prefixes of 0.5 s, 16 samples each
 
-# The recipes of `make checkpoints` (Makefile): command-line arguments and epochs. On real
-# clips each --set also gets window=REAL_WINDOW, and the epochs become as many training steps
-# as the shipped model took (real clips give fewer windows per epoch).
-CONV_AE = (["--normalization", "shared_pose", "--lr", "2e-3", "--set", "depool=linear", "input_dropout=0.0",
-            "l1=0.0"], 40)
-VAE = (["--normalization", "shared_pose", "--lr", "1e-3", "--set", "latent=16", "beta=32.0"], 60)
-VAE_LSTM = (["--lr", "3e-3", "--set", "observation_std=3.0", "contact_weight=1.0"], 20)
+SYNTHETIC_ONLY = ("--synthetic-clips", "--stride", "--epochs", "--conv-ae")
+"""Options of a recipe (each with one value) that say how to use the built-in data; on real
+clips ``trained_on`` gives its own stride, budget and conv AE."""
+
+
+def on_real_clips(name: str) -> tuple[list[str], int]:
+    """The ``make checkpoints`` recipe ``name`` (:data:`motionlab.recipes.RECIPES`) for real
+    clips: its options without :data:`SYNTHETIC_ONLY` and ``--half``, ``window=REAL_WINDOW``
+    added to its ``--set`` for the models that cut windows themselves; and its epochs."""
+    options = list(recipes.RECIPES[name].options)
+    kept, k = [], 0
+    while k < len(options):
+        skip = 2 if options[k] in SYNTHETIC_ONLY else 1 if options[k] == "--half" else 0
+        kept += [] if skip else [options[k]]
+        k += skip or 1
+    if name != "vae":                                       # the VAE's window is its conv AE's
+        kept.insert(kept.index("--set") + 1, f"window={REAL_WINDOW}")
+    return kept, int(options[options.index("--epochs") + 1])
 
 
 def report_row(name: str, features: np.ndarray, rest, finished: bool = False) -> None:
@@ -107,18 +120,20 @@ def trained_on(folder: str) -> tuple[dict, np.ndarray, dict]:
     cache = pretrained.CACHE / "quality" / Path(folder).resolve().name
     cache.mkdir(parents=True, exist_ok=True)
     common = ["--data", folder, "--half"]
-    conv_ae, vae, vae_lstm = (cache / f"{name}.pt" for name in ("conv_ae", "vae", "vae_lstm"))
-    recipes = [("conv_ae", conv_ae, ["conv_ae", *common, "--stride", "0.25", *CONV_AE[0], f"window={REAL_WINDOW}"]),
-               ("vae", vae, ["vae", "--conv-ae", str(conv_ae), *common, "--stride", "0.25", *VAE[0]]),
-               ("vae_lstm", vae_lstm, ["vae_lstm", *common, *VAE_LSTM[0], f"window={REAL_WINDOW}"])]
-    for name, path, argv in recipes:
+    paths = {}
+    for name, extra in (("conv_ae", ["--stride", "0.25"]), ("vae", ["--conv-ae", None, "--stride", "0.25"]),
+                        ("vae_lstm", [])):
+        options, epochs = on_real_clips(name)
+        argv = [name, *common, *(str(paths["conv_ae"]) if part is None else part for part in extra), *options]
+        # the file is named by its command, so a recipe changed since is trained again
+        paths[name] = path = cache / f"{name}-{hashlib.sha1(' '.join(argv).encode()).hexdigest()[:10]}.pt"
         if not path.exists():
             shipped_steps = len(training.load_checkpoint(pretrained.path(name)).history.train) \
                 if name in pretrained.available() else None
-            budget = ["--max-steps", str(shipped_steps)] if shipped_steps else \
-                ["--epochs", str({"conv_ae": CONV_AE, "vae": VAE, "vae_lstm": VAE_LSTM}[name][1])]
+            budget = ["--max-steps", str(shipped_steps)] if shipped_steps else ["--epochs", str(epochs)]
             print(f"training: python -m motionlab.train {' '.join(argv + budget)}")
             cli.main([*argv, *budget, "--out", str(path)])
+    conv_ae, vae, vae_lstm = paths["conv_ae"], paths["vae"], paths["vae_lstm"]
     models = {"conv_ae": training.load_checkpoint(conv_ae).model, "vae": pretrained.load_motion_vae(vae),
               "vae_lstm": training.load_checkpoint(vae_lstm).model}         # in eval mode, normaliser kept
     clips = data.load(folder, fps=FPS)

@@ -69,3 +69,19 @@ def test_a_bad_recipe_is_refused_naming_the_field():
     assert recipes.recipe("glow").argv("ck")[-2:] == ["--out", str(Path("ck") / "glow.pt")]
     assert train.build_parser().parse_args(recipes.recipe("dfn").argv("ck")).stage_epochs == \
         [("frame", 10), ("sequence", 10), ("dynamics", 20)]
+
+
+@pytest.mark.parametrize("name", ["conv_ae", "vae", "vae_lstm"])
+def test_quality_trains_the_same_recipes_on_real_clips(benchmark_script, name, tmp_path):
+    """``benchmarks/quality.py --data`` takes its command lines from the recipes: the same
+    config changes (and window=20 for the models that cut windows), no built-in-data options."""
+    quality = benchmark_script("quality")
+    options, epochs = quality.on_real_clips(name)
+    recipe = recipes.RECIPES[name]
+    conv_ae = ["--conv-ae", str(pretrained.path("conv_ae"))] if name == "vae" else []   # any checkpoint file
+    argv = [name, "--data", str(tmp_path), *conv_ae, *options]
+    parsed = train.build_parser().parse_args(argv)
+    window = [] if name == "vae" else [f"window={quality.REAL_WINDOW}"]
+    assert sorted(parsed.set) == sorted(recipe._parsed().set + window)
+    assert parsed.lr == recipe._parsed().lr and epochs == recipe._parsed().epochs
+    assert not set(options) & {"--synthetic-clips", "--epochs", "--half", "--stride"}

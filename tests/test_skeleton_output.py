@@ -1,15 +1,17 @@
-"""The skeleton output layer (``models/skeleton_output.py``) and the VAE-LSTM's and the conv
-autoencoder's ``skeleton`` option: in each sequence every bone keeps one length (its mean over the frames), directions
+"""The skeleton output layer (``models/skeleton_output.py``) and the VAE-LSTM's, the conv
+autoencoder's and the LSTM-3LR's ``skeleton`` option: in each sequence every bone keeps one length (its mean over the frames), directions
 and hips are the decoder's, the legs reach the decoder's ankles by IK, each sequence keeps
 its own body size, a pose already on a
 skeleton passes unchanged, and a model with it trains and generates bones that do not stretch
-(for the conv AE, also what it decodes from features no window gave, as the VAE's samples)."""
+(for the conv AE, also what it decodes from features no window gave, as the VAE's samples;
+for the LSTM-3LR, the primed body's bones, however long it runs, in ``generate`` and the stream)."""
 import numpy as np
 import pytest
 import torch
 
 from motionlab import contacts, data, metrics, training
 from motionlab.models.conv_ae import ConvAEConfig, ConvAutoencoder
+from motionlab.models.lstm import LSTMConfig, MotionLSTM
 from motionlab.models.skeleton_output import SkeletonOutput, reach
 from motionlab.models.vae import FeatureVAE, MotionVAE, VAEConfig
 from motionlab.models.vae_lstm import VAELSTMConfig
@@ -136,16 +138,20 @@ def test_a_vae_lstm_on_a_skeleton_trains_and_generates_bones_that_do_not_stretch
     assert drift["free"] > 100 * drift["skeleton"]                    # the same model without it stretches
 
 
-@pytest.mark.parametrize("name", ["vae_lstm", "conv_ae"])
+@pytest.mark.parametrize("name", ["vae_lstm", "conv_ae", "lstm"])
 def test_a_checkpoint_keeps_the_option(tmp_path, prepared, name):
-    model = vae_lstm(prepared, 0.0, skeleton=True) if name == "vae_lstm" else conv_ae(prepared, skeleton=True)
+    build = {"vae_lstm": lambda: vae_lstm(prepared, 0.0, skeleton=True), "conv_ae": lambda: conv_ae(prepared, skeleton=True),
+             "lstm": lambda: lstm(prepared, skeleton=True)}
+    model = build[name]()
     path = tmp_path / f"{name}.pt"
     training.save_checkpoint(path, model, prepared)
     loaded = training.load_checkpoint(path).model
     assert loaded.config.skeleton is True
     x = prepared.val.windows[:2]
-    rebuild = (lambda m: m.reconstruct(x)) if name == "vae_lstm" else (lambda m: m.project(x))
-    torch.testing.assert_close(rebuild(loaded), rebuild(model))
+    rebuild = {"vae_lstm": lambda m: m.reconstruct(x), "conv_ae": lambda m: m.project(x),
+               "lstm": lambda m: m(x[:, :-1], x[:, 1:, N_POSE:])[0]}[name]
+    with torch.no_grad():
+        torch.testing.assert_close(rebuild(loaded), rebuild(model))
 
 
 @pytest.mark.parametrize("distance", [0.0, 0.5, 1.5, 1.5 + 1e-9, 3.0])    # on the hip, bent, straight, beyond
@@ -169,17 +175,6 @@ def conv_ae(prepared, **changes) -> ConvAutoencoder:
     return model
 
 
-def test_the_conv_ae_option_is_off_by_default_and_refuses_what_it_cannot_serve(prepared):
-    assert ConvAEConfig().skeleton is False and conv_ae(prepared).skeleton is None
-    with pytest.raises(ValueError, match="skeleton: needs the 66 locomotion features"):
-        ConvAEConfig(n_features=58, skeleton=True)
-    model = conv_ae(prepared, skeleton=True)
-    model.normalizer = None
-    with pytest.raises(ValueError, match="normalizer"):
-        model(prepared.train.windows[:2])
-    assert model.trace(prepared.train.windows[:2])[-1][0].startswith("put onto a skeleton")
-
-
 def test_a_conv_ae_on_a_skeleton_trains_and_decodes_bones_that_do_not_stretch(prepared):
     config = training.TrainConfig(epochs=100, max_steps=40, lr=3e-3, batch_size=16, progress=False)
     drift = {}
@@ -199,3 +194,73 @@ def test_a_conv_ae_on_a_skeleton_trains_and_decodes_bones_that_do_not_stretch(pr
             drift[name, "sampled"] = metrics.bone_length_drift(motion_vae.generate(n=3, seed=0).positions)
     assert max(drift["skeleton"], drift["skeleton", "decoded"], drift["skeleton", "sampled"]) < 1e-4
     assert drift["free"] > 100 * drift["skeleton"] and drift["free", "decoded"] > 0.01
+
+
+# ------------------------------------------------------- the LSTM-3LR's option: the primed body's bones
+
+def lstm(prepared, control: str = "given", **changes) -> MotionLSTM:
+    torch.manual_seed(0)
+    model = MotionLSTM(LSTMConfig(window=16, hidden=16, layers=2, control=control, **changes))
+    model.normalizer = prepared.normalizer
+    return model
+
+
+REFUSALS = {   # model -> (its config class, a config it cannot serve, the words of that error, what needs the normaliser)
+    "conv_ae": (ConvAEConfig, {"n_features": 58}, "skeleton: needs the 66 locomotion features", lambda m, x: m(x)),
+    "lstm": (LSTMConfig, {"n_pose": 60}, "skeleton: needs the locomotion features", lambda m, x: m.loss(x)),
+}
+
+
+@pytest.mark.parametrize("name", sorted(REFUSALS))
+def test_the_option_is_off_by_default_and_refuses_what_it_cannot_serve(prepared, name):
+    config_class, bad, words, run = REFUSALS[name]
+    build = conv_ae if name == "conv_ae" else lstm
+    assert config_class().skeleton is False and build(prepared).skeleton is None
+    with pytest.raises(ValueError, match=words):
+        config_class(**bad, skeleton=True)
+    model = build(prepared, skeleton=True)
+    if name == "conv_ae":
+        assert model.trace(prepared.train.windows[:2])[-1][0].startswith("put onto a skeleton")
+    model.normalizer = None
+    with pytest.raises(ValueError, match="normali[sz]er"):
+        run(model, prepared.train.windows[:2])
+
+
+def test_a_pose_is_put_onto_the_bones_of_the_frame_it_was_predicted_from(prepared):
+    model, norm = lstm(prepared, skeleton=True), prepared.normalizer
+    x = prepared.val.windows[:2]
+    with torch.no_grad():
+        prediction, _ = model(x[:, :-1], x[:, 1:, N_POSE:])                               # (2, frames - 1, 63)
+    prediction = torch.cat([prediction, x[:, 1:, N_POSE:]], dim=-1)
+    np.testing.assert_allclose(LOCOMOTION.bone_lengths(in_metres(prediction, norm)),
+                               LOCOMOTION.bone_lengths(in_metres(x[:, :-1], norm)), rtol=1e-4)
+
+
+@pytest.mark.parametrize("control", ["given", "predicted"])
+def test_an_lstm_on_a_skeleton_trains_and_keeps_the_primed_bodys_bones(prepared, control):
+    config = training.TrainConfig(epochs=100, max_steps=30, lr=3e-3, batch_size=16, progress=False)
+    norm, prefix = prepared.normalizer, prepared.val.windows[:2, :4]
+    body = LOCOMOTION.bone_lengths(in_metres(prefix[:, -1], norm))                       # (2, 20)
+    changed = {}
+    for name, model in (("free", lstm(prepared, control)), ("skeleton", lstm(prepared, control, skeleton=True))):
+        history = training.train(model, prepared, config)
+        assert history.train[-1]["loss"] < history.train[0]["loss"]
+        control_signal = prepared.val.windows[:2, :, N_POSE:].repeat(1, 4, 1)             # 4 windows long
+        sampled = model.sample(prefix, control_signal.shape[1], control_signal)
+        bones = LOCOMOTION.bone_lengths(in_metres(sampled[:, 4:], norm))                   # (2, frames, 20)
+        changed[name] = np.abs(bones / body[:, None] - 1).max()
+    assert changed["skeleton"] < 1e-4                                   # the primed body's bones, every frame
+    assert changed["free"] > 100 * changed["skeleton"]                  # the free read-out stretches them
+
+
+def test_the_lstm_stream_keeps_the_bones_and_matches_generate(prepared):
+    model = lstm(prepared, skeleton=True)
+    norm = prepared.normalizer
+    history = norm.denormalize(prepared.val.windows[:1, :4].double().numpy())
+    control = norm.denormalize(prepared.val.windows[1:2].double().numpy())[0, :, N_POSE:]
+    stream = model.stream(history, normalizer=norm)
+    streamed = np.stack([stream.step(c).numpy() for c in control], axis=1)              # (1, frames, 66)
+    generated = model.generate(control, prefix=history).features
+    np.testing.assert_allclose(streamed, generated, atol=1e-4)
+    positions = to_positions(np.concatenate([history, streamed], axis=1), FPS)
+    assert metrics.bone_length_drift(positions) < 1e-5

@@ -17,6 +17,11 @@ Two variants, chosen by :attr:`LSTMConfig.control`:
 * ``"given"``: the model is *trained* with the control: its input is ``x_t`` and the next
   frame's control ``C_{t+1}``, and it predicts only the pose of ``x_{t+1}``.
 
+One option of ours: ``skeleton=True`` puts each predicted pose onto the bones of the frame it
+was predicted from (:class:`~motionlab.models.skeleton_output.SkeletonOutput`, the read-out
+giving only the bones' directions), in training and in generation alike, so a primed sequence
+keeps its body's bone lengths however long it runs; the free read-out stretches them.
+
 Tensors are ``(batch, frames, features)`` in the normalised units of
 :class:`motionlab.data.Normalizer`.
 """
@@ -31,8 +36,10 @@ from torch import nn
 
 from .. import checks
 from ..engine import recurrent
-from .base import Generated, GenerativeModel, check_tensor, eval_mode
+from ..representation import N_POSE
+from .base import Generated, GenerativeModel, check_tensor, eval_mode, normalizer_for
 from .modelcard import NO_CLIP, ModelCard, choice
+from .skeleton_output import SkeletonOutput
 
 
 @dataclass(frozen=True)
@@ -52,6 +59,10 @@ class LSTMConfig:
         input_noise: standard deviation (normalised units) of Gaussian noise added to the
             input frames while training, so that the model learns to recover from its own
             errors when it runs on its predictions (Fragkiadaki et al. §3.1).
+        skeleton: each predicted pose is put onto the body of the frame it was predicted
+            from (:class:`~motionlab.models.skeleton_output.SkeletonOutput`: bone directions
+            the read-out's, lengths the input frame's), so a primed sequence keeps its
+            body's bones however long it runs (ours; off: Fragkiadaki's free read-out).
     """
 
     n_pose: int = 63
@@ -62,6 +73,7 @@ class LSTMConfig:
     hidden: int = 128
     layers: int = 3
     input_noise: float = 0.05
+    skeleton: bool = False
 
     def __post_init__(self):
         checks.config(self, non_negative_fields=("input_noise",))
@@ -74,6 +86,9 @@ class LSTMConfig:
             raise ValueError(f"window: needs >= 2 frames (a frame and its successor), got {self.window}")
         if self.input_noise < 0:
             raise ValueError(f"input_noise: must be >= 0, got {self.input_noise}")
+        if self.skeleton and (self.n_pose, self.n_control) != (N_POSE, 3):
+            raise ValueError(f"skeleton: needs the locomotion features ({N_POSE} pose values and 3 controls), "
+                             f"got n_pose={self.n_pose}, n_control={self.n_control}")
 
     @property
     def n_features(self) -> int:
@@ -108,12 +123,13 @@ class MotionLSTM(GenerativeModel, nn.Module):
         outputs = config.n_pose if given else config.n_features
         self.lstm = nn.LSTM(inputs, config.hidden, config.layers, batch_first=True)
         self.readout = nn.Linear(config.hidden, outputs)
+        self.skeleton = SkeletonOutput() if config.skeleton else None
 
     def _check(self, x: torch.Tensor, name: str, features: int, min_frames: int = 1, finite: bool = True) -> None:
         check_tensor(x, name, features, min_frames, finite=finite)
 
     def forward(self, frames: torch.Tensor, next_control: torch.Tensor | None = None,
-                state: tuple[torch.Tensor, torch.Tensor] | None = None):
+                state: tuple[torch.Tensor, torch.Tensor] | None = None, lengths: torch.Tensor | None = None):
         """Predict frame ``t + 1`` from frames ``<= t``.
 
         Args:
@@ -121,6 +137,8 @@ class MotionLSTM(GenerativeModel, nn.Module):
             next_control: ``(batch, steps, n_control)``, the controls of frames ``t + 1``
                 (``control="given"`` only).
             state: the LSTM's ``(h, c)`` to continue from (``None``: zeros).
+            lengths: ``skeleton=True`` only: the bones ``(batch, 1 or steps, 20)`` in metres
+                the predictions keep (``None``: each input frame's own).
 
         Returns ``(predictions, state)``; predictions are ``(batch, steps, n_pose)`` for
         ``control="given"`` and ``(batch, steps, n_features)`` otherwise.
@@ -133,7 +151,20 @@ class MotionLSTM(GenerativeModel, nn.Module):
                                  f"{None if next_control is None else tuple(next_control.shape)}")
             inputs = torch.cat([frames, next_control], dim=-1)
         hidden, state = recurrent.run(self.lstm, inputs, state)
-        return self.readout(hidden), state
+        prediction = self.readout(hidden)
+        if self.skeleton is not None:
+            lengths = self._lengths(frames, last=False) if lengths is None else lengths
+            prediction = self.skeleton(prediction, self.normalizer, lengths)
+        return prediction, state
+
+    def _lengths(self, frames: torch.Tensor, last: bool = True) -> torch.Tensor | None:
+        """``skeleton=True``: the bones ``(batch, 1, 20)`` of each sequence's last frame, which
+        every frame generated from it keeps (``last=False``: every frame's, ``(batch, steps,
+        20)``: the clean input frames of a teacher-forced window); ``None`` otherwise."""
+        if self.skeleton is None:
+            return None
+        normalizer = normalizer_for(self, "skeleton", "the skeleton output layer measures bones")
+        return self.skeleton.pose_lengths(frames[:, -1:] if last else frames, normalizer)
 
     def loss(self, batch: torch.Tensor) -> dict[str, torch.Tensor]:
         """Teacher-forced next-frame mean squared error (normalised units) on windows
@@ -144,7 +175,7 @@ class MotionLSTM(GenerativeModel, nn.Module):
         inputs = batch[:, :-1]
         if self.training and self.config.input_noise > 0:
             inputs = inputs + self.config.input_noise * torch.randn_like(inputs)
-        prediction, _ = self(inputs, batch[:, 1:, n_pose:])
+        prediction, _ = self(inputs, batch[:, 1:, n_pose:], lengths=self._lengths(batch[:, :-1], last=False))
         target = batch[:, 1:]
         pose_mse = F.mse_loss(prediction[..., :n_pose], target[..., :n_pose])
         if self.config.control == "given":
@@ -187,8 +218,9 @@ class MotionLSTM(GenerativeModel, nn.Module):
             _, state = self(prefix[:, :-1], control[:, 1:k] if given else None) if k > 1 else (None, None)
             out = [prefix]
             current = prefix[:, -1:]
+            lengths = self._lengths(prefix)
             for t in range(k, frames):
-                prediction, state = self(current, control[:, t:t + 1] if given else None, state)
+                prediction, state = self(current, control[:, t:t + 1] if given else None, state, lengths)
                 if given:
                     current = torch.cat([prediction, control[:, t:t + 1]], dim=-1)
                 elif control is not None:
@@ -254,6 +286,7 @@ class LSTMStream:
         with torch.no_grad(), eval_mode(model):
             self.state = model(history[:, :-1], history[:, 1:, self.n_pose:])[1] if history.shape[1] > 1 else None
         self.current = history[:, -1:]
+        self.lengths = model._lengths(history)
 
     def step(self, control) -> torch.Tensor:
         """The next frame ``(batch, n_features)`` for this frame's ``control`` ``(batch, 3)``
@@ -266,7 +299,7 @@ class LSTMStream:
         if self._mean is not None:
             control = (control - self._mean[self.n_pose:]) / self._std[self.n_pose:]
         with torch.no_grad(), eval_mode(self.model):
-            pose, self.state = self.model(self.current, control[:, None], self.state)
+            pose, self.state = self.model(self.current, control[:, None], self.state, self.lengths)
         self.current = torch.cat([pose, control[:, None]], dim=-1)
         frame = self.current[:, 0]
         return frame if self._mean is None else frame * self._std + self._mean

@@ -72,6 +72,14 @@ def reach(hip, knee, target, thigh, shin) -> tuple[torch.Tensor, torch.Tensor]:
     return hip + thigh * (cos_a * direction + (1 - cos_a ** 2).sqrt() * pole), hip + d * direction
 
 
+def _in_metres(features: torch.Tensor, normalizer) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """Normalised ``features`` ``(..., >= 63)`` -> the pose ``(..., 21, 3)`` in metres, and the
+    pose's mean and standard deviation ``(63,)`` that undid the normalisation."""
+    mean = torch.as_tensor(normalizer.mean[:N_POSE], dtype=features.dtype, device=features.device)
+    std = torch.as_tensor(normalizer.std[:N_POSE], dtype=features.dtype, device=features.device)
+    return (features[..., :N_POSE] * std + mean).unflatten(-1, (LOCOMOTION.n_joints, 3)), mean, std
+
+
 class SkeletonOutput(nn.Module):
     """``forward(features, normalizer)``: normalised features ``(..., frames, 66)`` (pose,
     then control) with each sequence's pose put onto its own skeleton; the control passes
@@ -88,14 +96,21 @@ class SkeletonOutput(nn.Module):
         ``(..., 1, 20)``, each bone's mean length over the frames, ``LOCOMOTION.bones`` order."""
         return bone_lengths(pose).mean(dim=-2, keepdim=True)
 
-    def forward(self, features: torch.Tensor, normalizer) -> torch.Tensor:
+    @staticmethod
+    def pose_lengths(features: torch.Tensor, normalizer) -> torch.Tensor:
+        """The bone lengths ``(..., frames, 20)`` in metres of normalised ``features``
+        ``(..., frames, >= 63)``, frame by frame."""
+        return bone_lengths(_in_metres(features, normalizer)[0])
+
+    def forward(self, features: torch.Tensor, normalizer, lengths: torch.Tensor | None = None) -> torch.Tensor:
+        """``lengths`` ``(..., 1 or frames, 20)`` in metres: the bones to keep (an
+        autoregressive model's, carried from the body it continues); ``None``: each
+        sequence's own mean (:meth:`lengths`)."""
         if normalizer is None:
             raise ValueError("normalizer: the skeleton output layer measures bones in metres and needs the "
                              "model's normaliser (training.train sets model.normalizer)")
-        mean = torch.as_tensor(normalizer.mean[:N_POSE], dtype=features.dtype, device=features.device)
-        std = torch.as_tensor(normalizer.std[:N_POSE], dtype=features.dtype, device=features.device)
-        pose = (features[..., :N_POSE] * std + mean).unflatten(-1, (LOCOMOTION.n_joints, 3))
-        lengths = self.lengths(pose)
+        pose, mean, std = _in_metres(features, normalizer)
+        lengths = self.lengths(pose) if lengths is None else lengths.to(pose.dtype)
         placed = [pose[..., 0, :]] + [None] * (LOCOMOTION.n_joints - 1)
         for k, (parent, child) in enumerate(zip(PARENTS, CHILDREN)):   # parents come first
             if child not in self.by_ik:
