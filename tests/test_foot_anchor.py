@@ -104,22 +104,29 @@ def test_the_likelihood_stays_exact(walker):
     assert np.isfinite(nll)
 
 
-@pytest.mark.parametrize("config", [ANCHORED, SEEN, LEGGED], ids=["anchored", "m seen", "legs too"])
-def test_sampling_inverts_the_likelihoods_map_and_the_stream_follows(walker, config):
-    features, normalizer = walker
-    model = trained_like(config, normalizer)
+def sampled_and_streamed(model, features, normalizer, flow_input):
+    """Three 12-frame samples after 4 frames of the walk, drawn from fixed noise by
+    ``model.sample`` and by its stream: ``(noise, z, streamed - sampled)``, where ``z`` is what
+    the flow gives back for the samples whose input ``flow_input(poses, previous, controls)``
+    makes as ``log_likelihood`` does."""
     x = windows(features, normalizer)
     history, control = x[:, :4], x[:, 4:, -3:]
     noise = torch.randn(3, 12, 61, generator=torch.Generator().manual_seed(1))
     sampled = model.sample(control, history, temperature=1.0, noise=noise)
     window = torch.cat([history, sampled], dim=1)
     poses, controls = window[..., model.modelled], window[..., model.control]
-    with torch.no_grad():                              # the flow's input: the feet less m (log_likelihood's)
-        target = model._anchored(poses[:, 4:], poses[:, 3:-1], controls[:, 3:-1], -1.0)
-        z, _ = model.flow(target, model.conditioning(poses, controls))
+    with torch.no_grad():
+        z, _ = model.flow(flow_input(poses[:, 4:], poses[:, 3:-1], controls[:, 3:-1]), model.conditioning(poses, controls))
+    return noise, z, model.stream(history, temperature=1.0).run(control, noise) - sampled
+
+
+@pytest.mark.parametrize("config", [ANCHORED, SEEN, LEGGED], ids=["anchored", "m seen", "legs too"])
+def test_sampling_inverts_the_likelihoods_map_and_the_stream_follows(walker, config):
+    model = trained_like(config, walker[1])
+    noise, z, streamed_less_sampled = sampled_and_streamed(   # the flow's input: the feet less m
+        model, *walker, lambda poses, previous, controls: model._anchored(poses, previous, controls, -1.0))
     assert torch.allclose(z, noise, atol=1e-3)
-    streamed = model.stream(history, temperature=1.0).run(control, noise)
-    assert torch.allclose(streamed, sampled, atol=1e-4)
+    assert streamed_less_sampled.abs().max() < 1e-4
 
 
 def test_generate_makes_finite_motion(walker):

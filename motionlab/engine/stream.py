@@ -82,6 +82,7 @@ class MoGlowStream:
 
     A ``foot_anchor`` model's stream adds each frame's ``m`` (:meth:`MoGlow.anchor`, from
     the frame before and its control) to the flow's output, as :meth:`MoGlow.sample` does;
+    a ``bone_coordinates`` model's places its upper body from its bones (:meth:`MoGlow.restore`);
     a ``contact_head`` model's draws each frame's contacts first (:meth:`MoGlow.draw_contacts`)
     and keeps the last frame's as ``stream.contacts`` (for a foot lock, ``FootLock.step``).
 
@@ -317,9 +318,7 @@ class MoGlowStream:
                 coupled_hi.sub_(coupling.shift)
                 coupled_lo.copy_(z_lo)
                 torch.addmm(coupling.unmix_bias, self._coupled, coupling.unmix, out=self._z)   # W^-1, ActNorm^-1
-            x = self._z.clone()
-            if self._anchor_units is not None:                               # m from x_{t-1} and c_{t-1}
-                x = model._anchored(x, self.poses[:, -1], self.controls[:, -1], 1.0, self._anchor_units)
+            x = model.restore(self._z.clone(), self.poses[:, -1], self.controls[:, -1], self._anchor_units)   # m from x_{t-1}, c_{t-1}
             self.poses = torch.cat([self.poses[:, 1:], x[:, None]], dim=1)
             self.controls = controls[:, 1:]
             self.frames += 1

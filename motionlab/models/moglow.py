@@ -64,6 +64,12 @@ labels. Both factors are exact; at the data's own labels the joint likelihood bo
 from below. Sampling, and :class:`~motionlab.engine.stream.MoGlowStream`, draw the contacts
 first, frame by frame (:meth:`MoGlow.draw_contacts`).
 
+**Bones as lengths and directions** (``bone_coordinates``, off by default, not in the paper;
+:mod:`motionlab.models.bone_coordinates`). The spine's, neck's, head's and arms' joints are
+modelled by their bone's change of length since the previous frame and its direction, a
+smooth bijection given the conditioning whose log-determinant is added: the likelihood stays
+exact, and the flow's mode keeps each of those bones at its length.
+
 Everything here reuses :mod:`motionlab.models.flows` unchanged: the coupling network is
 the pluggable part (:class:`LSTMCouplingNet` here; the Markovian variant of §4.2 uses
 :class:`~motionlab.models.flows.MLPCouplingNet`).
@@ -84,8 +90,9 @@ from .. import checks
 from .base import Generated, eval_mode, generator_for, per_frame_nll
 from .flows import (FlowSequence, FlowStep, GaussianPrior, MLPCouplingNet, MotionFlow, henter_schedule,
                     output_layer)
-from . import anchor
+from . import anchor, bone_coordinates
 from .anchor import FootAnchor
+from .bone_coordinates import BoneCoordinates
 from . import contact_head
 from .contact_head import N_CONTACTS, ContactHead, DataContacts, labels_of
 from .modelcard import ModelCard
@@ -130,6 +137,9 @@ class MoGlowConfig:
             cond_t) p(x_t | c_t, cond_t)`` (:mod:`motionlab.models.contact_head`: the head
             sees the frame's conditioning, the coupling networks also the frame's labels);
             needs the locomotion features and, to train, the model's normaliser. Not in the paper.
+        bone_coordinates: model the spine's, neck's, head's and arms' joints by their bone's
+            change of length and its direction (:mod:`motionlab.models.bone_coordinates`),
+            so that those bones keep their length; needs the model's normaliser. Not in the paper.
     """
 
     n_features: int = 66
@@ -148,6 +158,7 @@ class MoGlowConfig:
     anchor_conditioning: bool = False
     leg_anchor: bool = False
     contact_head: bool = False
+    bone_coordinates: bool = False
 
     def __post_init__(self):
         checks.config(self, probability_fields=("dropout",))
@@ -170,6 +181,7 @@ class MoGlowConfig:
         if self.anchor_conditioning and not self.foot_anchor:
             raise ValueError("anchor_conditioning: the networks see the feet's anchor m; needs foot_anchor=True")
         contact_head.check_config(self)
+        bone_coordinates.check_config(self)
 
     @classmethod
     def paper(cls, **changes) -> "MoGlowConfig":
@@ -215,7 +227,7 @@ class LSTMCouplingNet(nn.Module):
         return output_layer(self.output, hidden, lo)            # float32 under mixed precision
 
 
-class MoGlow(DataContacts, FootAnchor, MotionFlow):
+class MoGlow(DataContacts, FootAnchor, BoneCoordinates, MotionFlow):
     """The autoregressive MoGlow of §4.2 (or its Markov variant, ``recurrent=False``).
 
     Batches are normalised feature windows ``(batch, frames, n_features)`` with
@@ -322,15 +334,21 @@ class MoGlow(DataContacts, FootAnchor, MotionFlow):
         poses, control = batch[..., self.modelled], batch[..., self.control]
         cond = self.conditioning(poses, control, drop=self.training)
         tau = self.config.history
-        target = poses[:, tau:]
+        target, bones = poses[:, tau:], 0.0
+        if self.config.bone_coordinates:     # lengths and directions: its log-determinant added
+            target, bones = self.to_bones(target, poses[:, tau - 1:-1])
+            bones = bones.sum(1)
+            if self.training:                # dequantisation: the data's bones never change length
+                lengths = self._bone_units(target.device)[3][:, 0]
+                target[..., lengths] = target[..., lengths] + torch.randn_like(target[..., lengths])
         if self.config.foot_anchor:          # a shift by the conditioning: log-determinant 0
             target = self._anchored(target, poses[:, tau - 1:-1], control[:, tau - 1:-1], -1.0)
         if self.contact_head is None:
             z, logdet = self.flow(target, cond)
-            return self.prior.log_prob(z) + logdet
+            return self.prior.log_prob(z) + logdet + bones
         labels = self.data_contacts(batch)[:, tau:]      # ln p(x, c(x)): a lower bound on ln p(x)
         z, logdet = self.flow(target, self.with_contacts(cond, labels))
-        return self.prior.log_prob(z) + logdet + self.contact_head.log_prob(labels, cond)
+        return self.prior.log_prob(z) + logdet + bones + self.contact_head.log_prob(labels, cond)
 
     def loss(self, batch: torch.Tensor) -> dict[str, torch.Tensor]:
         """NLL in nats per modelled value (``"loss"``) and in bits per predicted frame."""
@@ -425,12 +443,22 @@ class MoGlow(DataContacts, FootAnchor, MotionFlow):
                 if carried is not None:
                     drawn.append(carried[0])                              # the state the head drew
                 x = self.flow.inverse(temperature * noise[:, t:t + 1], cond)
-                if self.config.foot_anchor:
-                    x = self._anchored(x, poses[:, -1:], controls[:, t + tau - 1:t + tau], 1.0, units)
+                x = self.restore(x, poses[:, -1:], controls[:, t + tau - 1:t + tau], units)
                 poses = torch.cat([poses, x], dim=1)
         contacts = None if carried is None else (labels_of(torch.stack(drawn, 1)) if drawn
                                                  else control.new_zeros(batch, 0, N_CONTACTS))
         return self.join_features(poses[:, tau:], control), contacts
+
+    def restore(self, x: torch.Tensor, previous: torch.Tensor, control: torch.Tensor, units=None) -> torch.Tensor:
+        """The new poses ``(..., n_modelled)`` from the flow's values ``x``, given the frame
+        before and its control (``previous``, ``control``: the same leading shape): the feet
+        anchored back (``foot_anchor``), then the upper body's joints from their bones
+        (``bone_coordinates``). For :meth:`sample` and :class:`~motionlab.engine.stream.MoGlowStream`."""
+        if self.config.foot_anchor:
+            x = self._anchored(x, previous, control, 1.0, units)
+        if self.config.bone_coordinates:
+            x = self.from_bones(x, previous)
+        return x
 
     def draw_contacts(self, cond: torch.Tensor, carried, generator: torch.Generator | None = None):
         """With a contact head, one frame's contacts drawn from ``p(c_t | c_<t, cond_t)`` and
@@ -505,7 +533,9 @@ class MoGlow(DataContacts, FootAnchor, MotionFlow):
             (["toes modelled less their ankles, knees less the midpoint of hip and ankle (leg_anchor)"]
              if c.leg_anchor else []) + \
             ([f"beside the flow: p(contacts | earlier contacts, conditioning), {N_CONTACTS} labels per frame, "
-              "which the coupling networks see beside the conditioning (contact_head)"] if c.contact_head else [])
+              "which the coupling networks see beside the conditioning (contact_head)"] if c.contact_head else []) + \
+            (["spine, neck, head and arms modelled by each bone's change of length and its direction "
+              "(bone_coordinates)"] if c.bone_coordinates else [])
 
 
 CARD = ModelCard("moglow", MoGlow, MoGlowConfig, schedule=henter_schedule(80_000, "autoregressive"))

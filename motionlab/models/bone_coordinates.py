@@ -1,0 +1,143 @@
+"""The upper body's bones as a length and a direction: coordinates MoGlow can model (``bone_coordinates``).
+
+In root-local positions a bone's length is a curved function of the two joints it joins,
+and a flow that adds its noise coordinate by coordinate stretches bones, in its mode too
+(docs/feet.md: the anchored MoGlow's shins and forearms vary by 5-10 % over a run at τ = 0).
+With ``bone_coordinates`` MoGlow models each joint of the spine, neck, head and arms (the
+bones whose child is one of them, parents first) by three other numbers, in place of its
+``x, y, z``: with ``o = p_child - p_parent`` (metres) and ``o'`` the same bone in the
+previous frame,
+
+    l = (ln |o| - ln |o'|) / K            the bone's change of length since the previous frame
+    s = stereographic(o / |o|)            its direction, projected from a pole it never points to
+
+(``K`` = :data:`LOG_LENGTH_UNIT`; the pole is the opposite of the bone's mean direction in
+the data, so ``s = 0`` is the bone pointing its usual way). The map is a smooth bijection
+given the previous frame, which the model conditions on, so maximum likelihood stays exact:
+
+    ln p(x) = ln p(y) + Σ_bones [Σ_axes ln σ_axis - 3 ln |o| - ln 4 + 2 ln(1 + |s|²) - ln K]
+
+(``σ``: the normaliser's standard deviations; ``|o|³ · 4 / (1 + |s|²)²`` is the volume of
+spherical coordinates with the stereographic sphere). The data's bones keep their length,
+so every ``l`` of the data is 0 and its density could grow without bound; in training each
+``l`` gets standard-normal noise (dequantisation: a length jitter of ``K``). A sample's
+bone then changes its length by ``K`` times the flow's ``l`` per frame: the mode holds it, up
+to the flow's error, and the noise adds up over a long run as a random walk.
+
+The legs are left to ``leg_anchor`` (:mod:`motionlab.models.anchor`), which models the knees
+and toes from the hips and ankles of the same frame. Measured on the anchored MoGlow and not
+shipped (docs/feet.md, "lengths and directions"): the running bones keep within 1.3 %, and
+one training of two drags its legs on the side-step.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import torch
+
+from ..representation import N_POSE
+from ..skeleton import LOCOMOTION
+from .base import normalizer_for
+
+LOG_LENGTH_UNIT = 1e-4
+"""``K``: one unit of ``l`` is a change of length by this fraction of the bone, per frame."""
+
+FIRST_UPPER_JOINT = LOCOMOTION.names.index("Spine")
+UPPER_BONES = tuple((child, parent) for parent, child in LOCOMOTION.bones if child >= FIRST_UPPER_JOINT)
+"""``(child, parent)`` of the spine, neck, head and arms, parents first (``LOCOMOTION`` order)."""
+
+
+def check_config(config) -> None:
+    """``ValueError`` naming ``bone_coordinates`` where a config cannot model them: they need
+    the locomotion features with every upper-body joint's ``x, y, z`` modelled."""
+    if not config.bone_coordinates:
+        return
+    n_pose = config.n_features - config.n_control
+    if (n_pose, config.n_control) != (N_POSE, 3):
+        raise ValueError(f"bone_coordinates: needs the locomotion features ({N_POSE} pose values and 3 "
+                         f"controls), got {n_pose} and {config.n_control}")
+    upper = {3 * child + axis for child, _ in UPPER_BONES for axis in range(3)}
+    if set(config.constant_features) & upper:
+        raise ValueError("bone_coordinates: the spine's, neck's, head's and arms' values cannot be constant_features")
+
+
+class BoneCoordinates:
+    """The map, for a MoGlow whose ``config`` has ``bone_coordinates`` (``modelled`` and
+    ``normalizer`` as :class:`~motionlab.models.moglow.MoGlow`)."""
+
+    def _bone_units(self, device) -> tuple:
+        """What the map needs, computed once per normaliser: the pose's mean and standard
+        deviation ``(63,)``, the modelled columns, each bone's child columns ``(12, 3)``, and
+        its pole and the pole's two orthonormal axes ``(12, 3)`` each."""
+        normalizer = normalizer_for(self, "bone_coordinates", "the bones' lengths are measured")
+        key = (id(normalizer), str(device))
+        cached = getattr(self, "_bone_cache", None)
+        if cached is not None and cached[0] == key:
+            return cached[1]
+        with torch.inference_mode(False):            # kept across calls: not inference tensors (a stream's)
+            units = self._compute_bone_units(normalizer, device)
+        self._bone_cache = (key, units)
+        return units
+
+    def _compute_bone_units(self, normalizer, device) -> tuple:
+        mean = torch.tensor(np.asarray(normalizer.mean[:N_POSE], dtype=np.float64), dtype=torch.float32, device=device)
+        std = torch.tensor(np.asarray(normalizer.std[:N_POSE], dtype=np.float64), dtype=torch.float32, device=device)
+        modelled = self.modelled.tolist()
+        columns = torch.tensor([[modelled.index(3 * child + axis) for axis in range(3)] for child, _ in UPPER_BONES],
+                               device=device)
+        joints = mean.view(LOCOMOTION.n_joints, 3)
+        poles, first, second = [], [], []
+        for child, parent in UPPER_BONES:
+            pole = -(joints[child] - joints[parent])
+            pole = pole / pole.norm()
+            helper = torch.tensor([1.0, 0.0, 0.0] if abs(float(pole[0])) < 0.9 else [0.0, 1.0, 0.0], device=device)
+            e1 = torch.linalg.cross(pole, helper)
+            e1 = e1 / e1.norm()
+            poles.append(pole), first.append(e1), second.append(torch.linalg.cross(pole, e1))
+        log_std = float(torch.log(std.view(-1, 3)[[c for c, _ in UPPER_BONES]]).sum())
+        return (mean, std, torch.tensor(modelled, device=device), columns, torch.stack(poles), torch.stack(first),
+                torch.stack(second), log_std)
+
+    @staticmethod
+    def _joints(x: torch.Tensor, mean, std, modelled) -> torch.Tensor:
+        """Modelled normalised values ``(..., n_modelled)`` -> joints ``(..., 21, 3)`` in metres
+        (a constant feature at its mean)."""
+        pose = mean.expand(*x.shape[:-1], N_POSE).clone()
+        pose[..., modelled] = x.float() * std[modelled] + mean[modelled]
+        return pose.unflatten(-1, (LOCOMOTION.n_joints, 3))
+
+    def to_bones(self, poses: torch.Tensor, previous: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """The flow's values of ``poses`` ``(..., n_modelled)`` (normalised) given the frames
+        before them ``previous`` (same shape): ``(y, ln |det ∂y/∂x|)``, the second ``(...)``."""
+        mean, std, modelled, columns, poles, e1, e2, log_std = self._bone_units(poses.device)
+        children, parents = [c for c, _ in UPPER_BONES], [p for _, p in UPPER_BONES]
+        now, before = self._joints(poses, mean, std, modelled), self._joints(previous, mean, std, modelled)
+        bone, bone_before = now[..., children, :] - now[..., parents, :], before[..., children, :] - before[..., parents, :]
+        length = bone.norm(dim=-1)                                                    # (..., 12)
+        u = bone / length[..., None]
+        away = 1 - (u * poles).sum(-1)                                                # 1 - u·pole
+        s1, s2 = (u * e1).sum(-1) / away, (u * e2).sum(-1) / away
+        ell = (torch.log(length) - torch.log(bone_before.norm(dim=-1))) / LOG_LENGTH_UNIT
+        y = poses.clone()
+        y[..., columns] = torch.stack([ell, s1, s2], dim=-1).to(y.dtype)
+        logdet = log_std + (-3 * torch.log(length) + 2 * torch.log1p(s1 ** 2 + s2 ** 2)).sum(-1) \
+            - len(UPPER_BONES) * (math.log(4) + math.log(LOG_LENGTH_UNIT))
+        return y, logdet
+
+    def from_bones(self, y: torch.Tensor, previous: torch.Tensor) -> torch.Tensor:
+        """:meth:`to_bones` inverted: the poses ``(..., n_modelled)`` whose flow's values are
+        ``y``, given the frames before them; parents first, each joint placed from its parent."""
+        mean, std, modelled, columns, poles, e1, e2, _ = self._bone_units(y.device)
+        before = self._joints(previous, mean, std, modelled)
+        x = y.clone()
+        joints = self._joints(x, mean, std, modelled)                # the hips and legs are already x's
+        for k, (child, parent) in enumerate(UPPER_BONES):
+            ell, s1, s2 = (y[..., columns[k, axis]].float() for axis in range(3))
+            length = (before[..., child, :] - before[..., parent, :]).norm(dim=-1) * torch.exp(LOG_LENGTH_UNIT * ell)
+            n2 = (s1 ** 2 + s2 ** 2)[..., None]
+            u = (2 * (s1[..., None] * e1[k] + s2[..., None] * e2[k]) + (n2 - 1) * poles[k]) / (n2 + 1)
+            joints[..., child, :] = joints[..., parent, :] + length[..., None] * u
+            x[..., columns[k]] = ((joints[..., child, :] - mean[3 * child:3 * child + 3])
+                                  / std[3 * child:3 * child + 3]).to(x.dtype)
+        return x
