@@ -76,9 +76,11 @@ def on_real_clips(name: str) -> tuple[list[str], int]:
     options = list(recipes.RECIPES[name].options)
     kept, k = [], 0
     while k < len(options):
-        skip = 2 if options[k] in SYNTHETIC_ONLY else 1 if options[k] == "--half" else 0
-        kept += [] if skip else [options[k]]
-        k += skip or 1
+        if options[k] in SYNTHETIC_ONLY:
+            k += 2                                          # the option and its value
+        else:
+            kept += [] if options[k] == "--half" else [options[k]]
+            k += 1
     if name != "vae":                                       # the VAE's window is its conv AE's
         kept.insert(kept.index("--set") + 1, f"window={REAL_WINDOW}")
     return kept, int(options[options.index("--epochs") + 1])
@@ -121,10 +123,11 @@ def trained_on(folder: str) -> tuple[dict, np.ndarray, dict]:
     cache.mkdir(parents=True, exist_ok=True)
     common = ["--data", folder, "--half"]
     paths = {}
-    for name, extra in (("conv_ae", ["--stride", "0.25"]), ("vae", ["--conv-ae", None, "--stride", "0.25"]),
-                        ("vae_lstm", [])):
+    for name in ("conv_ae", "vae", "vae_lstm"):
         options, epochs = on_real_clips(name)
-        argv = [name, *common, *(str(paths["conv_ae"]) if part is None else part for part in extra), *options]
+        stride = ["--stride", "0.25"] if name != "vae_lstm" else []         # Motegi's models: a window every 0.25 s
+        features = ["--conv-ae", str(paths["conv_ae"])] if name == "vae" else []
+        argv = [name, *common, *features, *stride, *options]
         # the file is named by its command, so a recipe changed since is trained again
         paths[name] = path = cache / f"{name}-{hashlib.sha1(' '.join(argv).encode()).hexdigest()[:10]}.pt"
         if not path.exists():

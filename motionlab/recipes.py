@@ -106,7 +106,8 @@ RECIPES = {recipe.name: recipe for recipe in (
            "Motegi's VAE on the conv AE's features (notebook 03); needs conv_ae first"),
     Recipe("vae_lstm", "vae_lstm.pt", "vae_lstm",
            (*HABIBIE, "--set", "observation_std=3.0", "contact_weight=1.0", "skeleton=true"),
-           "Habibie's VAE-LSTM, with the free-running and foot-contact terms, on a skeleton output layer (notebook 04)"),
+           "Habibie's VAE-LSTM, with the free-running and foot-contact terms, on a skeleton output layer "
+           "(notebook 04)"),
     Recipe("vae_lstm_gated", "vae_lstm_gated.pt", "vae_lstm",
            (*HABIBIE, "--set", "observation_std=3.0", "contact_weight=1.0", "foot_gate=true", "skeleton=true"),
            "the same with gated feet on a skeleton output layer (notebooks 04 and 08)"),

@@ -52,15 +52,21 @@ def test_off_by_default_and_refuses_what_it_cannot_serve(walker):
     assert MoGlow(BONED).describe()[-1].endswith("(bone_coordinates)")
 
 
-def test_the_map_inverts_and_the_datas_lengths_do_not_change(walker):
+def walk_in_bones(walker):
+    """A model with the option, the walk's modelled poses ``(3, 16, 61)``, the flow's values
+    of frames 1.. given the frames before, and the bones' columns ``(12, 3)``: l, s1, s2."""
     features, normalizer = walker
     model = model_with(BONED, normalizer)
     poses = windows(features, normalizer)[..., model.modelled]
     y, _ = model.to_bones(poses[:, 1:], poses[:, :-1])
-    columns = model._bone_units(y.device)[3]
+    return model, poses, y, model._bone_units(y.device).columns
+
+
+def test_the_map_inverts_and_the_datas_lengths_do_not_change(walker):
+    model, poses, y, columns = walk_in_bones(walker)
     assert y[..., columns[:, 0]].abs().max() < 0.05            # l: the data's bones keep their length (units of K)
-    assert torch.equal(y[..., [c for c in range(y.shape[-1]) if c not in columns.flatten().tolist()]],
-                       poses[:, 1:, [c for c in range(y.shape[-1]) if c not in columns.flatten().tolist()]])
+    others = [c for c in range(y.shape[-1]) if c not in columns.flatten().tolist()]
+    assert torch.equal(y[..., others], poses[:, 1:, others])    # the hips and legs pass unchanged
     assert torch.allclose(model.from_bones(y, poses[:, :-1]), poses[:, 1:], atol=1e-4)
 
 
@@ -77,10 +83,7 @@ def test_the_log_determinant_is_the_jacobians(walker):
 
 def test_a_bone_whose_length_change_is_zero_keeps_its_length(walker):
     features, normalizer = walker
-    model = model_with(BONED, normalizer)
-    poses = windows(features, normalizer)[..., model.modelled]
-    y, _ = model.to_bones(poses[:, 1:], poses[:, :-1])
-    columns = model._bone_units(y.device)[3]
+    model, poses, y, columns = walk_in_bones(walker)
     y[..., columns[:, 0]] = 0.0                                             # every l 0 ...
     y[..., columns[:, 1:].flatten()] += 0.2 * torch.randn_like(y[..., columns[:, 1:].flatten()])   # ... any direction
     placed = model.from_bones(y, poses[:, :-1])

@@ -116,7 +116,8 @@ def sampled_and_streamed(model, features, normalizer, flow_input):
     window = torch.cat([history, sampled], dim=1)
     poses, controls = window[..., model.modelled], window[..., model.control]
     with torch.no_grad():
-        z, _ = model.flow(flow_input(poses[:, 4:], poses[:, 3:-1], controls[:, 3:-1]), model.conditioning(poses, controls))
+        target = flow_input(poses[:, 4:], poses[:, 3:-1], controls[:, 3:-1])
+        z, _ = model.flow(target, model.conditioning(poses, controls))
     return noise, z, model.stream(history, temperature=1.0).run(control, noise) - sampled
 
 

@@ -1,10 +1,10 @@
 """The skeleton output layer (``models/skeleton_output.py``) and the VAE-LSTM's, the conv
-autoencoder's and the LSTM-3LR's ``skeleton`` option: in each sequence every bone keeps one length (its mean over the frames), directions
-and hips are the decoder's, the legs reach the decoder's ankles by IK, each sequence keeps
-its own body size, a pose already on a
-skeleton passes unchanged, and a model with it trains and generates bones that do not stretch
-(for the conv AE, also what it decodes from features no window gave, as the VAE's samples;
-for the LSTM-3LR, the primed body's bones, however long it runs, in ``generate`` and the stream)."""
+autoencoder's and the LSTM-3LR's ``skeleton`` option: in each sequence every bone keeps one
+length (its mean over the frames), directions and hips are the decoder's, the legs reach the
+decoder's ankles by IK, each sequence keeps its own body size, a pose already on a skeleton
+passes unchanged, and a model with it trains and generates bones that do not stretch (for
+the conv AE, also what it decodes from features no window gave, as the VAE's samples; for
+the LSTM-3LR, the primed body's bones, however long it runs, in ``generate`` and the stream)."""
 import numpy as np
 import pytest
 import torch
@@ -140,8 +140,8 @@ def test_a_vae_lstm_on_a_skeleton_trains_and_generates_bones_that_do_not_stretch
 
 @pytest.mark.parametrize("name", ["vae_lstm", "conv_ae", "lstm"])
 def test_a_checkpoint_keeps_the_option(tmp_path, prepared, name):
-    build = {"vae_lstm": lambda: vae_lstm(prepared, 0.0, skeleton=True), "conv_ae": lambda: conv_ae(prepared, skeleton=True),
-             "lstm": lambda: lstm(prepared, skeleton=True)}
+    build = {"vae_lstm": lambda: vae_lstm(prepared, 0.0, skeleton=True),
+             "conv_ae": lambda: conv_ae(prepared, skeleton=True), "lstm": lambda: lstm(prepared, skeleton=True)}
     model = build[name]()
     path = tmp_path / f"{name}.pt"
     training.save_checkpoint(path, model, prepared)
@@ -205,7 +205,8 @@ def lstm(prepared, control: str = "given", **changes) -> MotionLSTM:
     return model
 
 
-REFUSALS = {   # model -> (its config class, a config it cannot serve, the words of that error, what needs the normaliser)
+# model -> (its config class, a config it cannot serve, the words of that error, what needs the normaliser)
+REFUSALS = {
     "conv_ae": (ConvAEConfig, {"n_features": 58}, "skeleton: needs the 66 locomotion features", lambda m, x: m(x)),
     "lstm": (LSTMConfig, {"n_pose": 60}, "skeleton: needs the locomotion features", lambda m, x: m.loss(x)),
 }

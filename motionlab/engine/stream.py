@@ -318,7 +318,8 @@ class MoGlowStream:
                 coupled_hi.sub_(coupling.shift)
                 coupled_lo.copy_(z_lo)
                 torch.addmm(coupling.unmix_bias, self._coupled, coupling.unmix, out=self._z)   # W^-1, ActNorm^-1
-            x = model.restore(self._z.clone(), self.poses[:, -1], self.controls[:, -1], self._anchor_units)   # m from x_{t-1}, c_{t-1}
+            # the feet's m (and the bones) from x_{t-1} and c_{t-1}
+            x = model.restore(self._z.clone(), self.poses[:, -1], self.controls[:, -1], self._anchor_units)
             self.poses = torch.cat([self.poses[:, 1:], x[:, None]], dim=1)
             self.controls = controls[:, 1:]
             self.frames += 1

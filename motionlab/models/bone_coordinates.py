@@ -32,6 +32,7 @@ one training of two drags its legs on the side-step.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 import torch
@@ -62,14 +63,29 @@ def check_config(config) -> None:
         raise ValueError("bone_coordinates: the spine's, neck's, head's and arms' values cannot be constant_features")
 
 
+CHILDREN = [child for child, _ in UPPER_BONES]
+PARENTS = [parent for _, parent in UPPER_BONES]
+
+
+class BoneUnits(NamedTuple):
+    """What the map needs from a normaliser (:meth:`BoneCoordinates._bone_units`)."""
+
+    mean: torch.Tensor         # (63,) the pose's mean, metres
+    std: torch.Tensor          # (63,) its standard deviation
+    modelled: torch.Tensor     # the pose features the flow models, in its column order
+    columns: torch.Tensor      # (12, 3) each bone's child's columns: l, s1, s2 in the flow's values
+    poles: torch.Tensor        # (12, 3) each bone's pole: the opposite of its mean direction
+    e1: torch.Tensor           # (12, 3) and two orthonormal axes across it
+    e2: torch.Tensor
+    log_std: float             # Σ ln σ over the children's x, y, z: the log-determinant's constant
+
+
 class BoneCoordinates:
     """The map, for a MoGlow whose ``config`` has ``bone_coordinates`` (``modelled`` and
     ``normalizer`` as :class:`~motionlab.models.moglow.MoGlow`)."""
 
-    def _bone_units(self, device) -> tuple:
-        """What the map needs, computed once per normaliser: the pose's mean and standard
-        deviation ``(63,)``, the modelled columns, each bone's child columns ``(12, 3)``, and
-        its pole and the pole's two orthonormal axes ``(12, 3)`` each."""
+    def _bone_units(self, device) -> BoneUnits:
+        """What the map needs (:class:`BoneUnits`), computed once per normaliser and device."""
         normalizer = normalizer_for(self, "bone_coordinates", "the bones' lengths are measured")
         key = (id(normalizer), str(device))
         cached = getattr(self, "_bone_cache", None)
@@ -80,7 +96,7 @@ class BoneCoordinates:
         self._bone_cache = (key, units)
         return units
 
-    def _compute_bone_units(self, normalizer, device) -> tuple:
+    def _compute_bone_units(self, normalizer, device) -> BoneUnits:
         mean = torch.tensor(np.asarray(normalizer.mean[:N_POSE], dtype=np.float64), dtype=torch.float32, device=device)
         std = torch.tensor(np.asarray(normalizer.std[:N_POSE], dtype=np.float64), dtype=torch.float32, device=device)
         modelled = self.modelled.tolist()
@@ -95,14 +111,15 @@ class BoneCoordinates:
             e1 = torch.linalg.cross(pole, helper)
             e1 = e1 / e1.norm()
             poles.append(pole), first.append(e1), second.append(torch.linalg.cross(pole, e1))
-        log_std = float(torch.log(std.view(-1, 3)[[c for c, _ in UPPER_BONES]]).sum())
-        return (mean, std, torch.tensor(modelled, device=device), columns, torch.stack(poles), torch.stack(first),
-                torch.stack(second), log_std)
+        log_std = float(torch.log(std.view(-1, 3)[CHILDREN]).sum())
+        return BoneUnits(mean, std, torch.tensor(modelled, device=device), columns, torch.stack(poles),
+                         torch.stack(first), torch.stack(second), log_std)
 
     @staticmethod
-    def _joints(x: torch.Tensor, mean, std, modelled) -> torch.Tensor:
+    def _joints(x: torch.Tensor, units: BoneUnits) -> torch.Tensor:
         """Modelled normalised values ``(..., n_modelled)`` -> joints ``(..., 21, 3)`` in metres
         (a constant feature at its mean)."""
+        mean, std, modelled = units.mean, units.std, units.modelled
         pose = mean.expand(*x.shape[:-1], N_POSE).clone()
         pose[..., modelled] = x.float() * std[modelled] + mean[modelled]
         return pose.unflatten(-1, (LOCOMOTION.n_joints, 3))
@@ -110,34 +127,34 @@ class BoneCoordinates:
     def to_bones(self, poses: torch.Tensor, previous: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """The flow's values of ``poses`` ``(..., n_modelled)`` (normalised) given the frames
         before them ``previous`` (same shape): ``(y, ln |det ∂y/∂x|)``, the second ``(...)``."""
-        mean, std, modelled, columns, poles, e1, e2, log_std = self._bone_units(poses.device)
-        children, parents = [c for c, _ in UPPER_BONES], [p for _, p in UPPER_BONES]
-        now, before = self._joints(poses, mean, std, modelled), self._joints(previous, mean, std, modelled)
-        bone, bone_before = now[..., children, :] - now[..., parents, :], before[..., children, :] - before[..., parents, :]
-        length = bone.norm(dim=-1)                                                    # (..., 12)
+        units = self._bone_units(poses.device)
+        now, before = self._joints(poses, units), self._joints(previous, units)
+        bone = now[..., CHILDREN, :] - now[..., PARENTS, :]                          # o, (..., 12, 3)
+        length = bone.norm(dim=-1)                                                    # |o|
         u = bone / length[..., None]
-        away = 1 - (u * poles).sum(-1)                                                # 1 - u·pole
-        s1, s2 = (u * e1).sum(-1) / away, (u * e2).sum(-1) / away
-        ell = (torch.log(length) - torch.log(bone_before.norm(dim=-1))) / LOG_LENGTH_UNIT
+        away = 1 - (u * units.poles).sum(-1)                                          # 1 - u·pole
+        s1, s2 = (u * units.e1).sum(-1) / away, (u * units.e2).sum(-1) / away        # stereographic
+        length_before = (before[..., CHILDREN, :] - before[..., PARENTS, :]).norm(dim=-1)
+        ell = (torch.log(length) - torch.log(length_before)) / LOG_LENGTH_UNIT
         y = poses.clone()
-        y[..., columns] = torch.stack([ell, s1, s2], dim=-1).to(y.dtype)
-        logdet = log_std + (-3 * torch.log(length) + 2 * torch.log1p(s1 ** 2 + s2 ** 2)).sum(-1) \
+        y[..., units.columns] = torch.stack([ell, s1, s2], dim=-1).to(y.dtype)
+        logdet = units.log_std + (-3 * torch.log(length) + 2 * torch.log1p(s1 ** 2 + s2 ** 2)).sum(-1) \
             - len(UPPER_BONES) * (math.log(4) + math.log(LOG_LENGTH_UNIT))
         return y, logdet
 
     def from_bones(self, y: torch.Tensor, previous: torch.Tensor) -> torch.Tensor:
         """:meth:`to_bones` inverted: the poses ``(..., n_modelled)`` whose flow's values are
         ``y``, given the frames before them; parents first, each joint placed from its parent."""
-        mean, std, modelled, columns, poles, e1, e2, _ = self._bone_units(y.device)
-        before = self._joints(previous, mean, std, modelled)
+        units = self._bone_units(y.device)
+        before = self._joints(previous, units)
         x = y.clone()
-        joints = self._joints(x, mean, std, modelled)                # the hips and legs are already x's
+        joints = self._joints(x, units)                              # the hips and legs are already x's
         for k, (child, parent) in enumerate(UPPER_BONES):
-            ell, s1, s2 = (y[..., columns[k, axis]].float() for axis in range(3))
+            ell, s1, s2 = (y[..., units.columns[k, axis]].float() for axis in range(3))
             length = (before[..., child, :] - before[..., parent, :]).norm(dim=-1) * torch.exp(LOG_LENGTH_UNIT * ell)
-            n2 = (s1 ** 2 + s2 ** 2)[..., None]
-            u = (2 * (s1[..., None] * e1[k] + s2[..., None] * e2[k]) + (n2 - 1) * poles[k]) / (n2 + 1)
+            n2 = (s1 ** 2 + s2 ** 2)[..., None]                      # the stereographic projection inverted
+            u = (2 * (s1[..., None] * units.e1[k] + s2[..., None] * units.e2[k]) + (n2 - 1) * units.poles[k]) / (n2 + 1)
             joints[..., child, :] = joints[..., parent, :] + length[..., None] * u
-            x[..., columns[k]] = ((joints[..., child, :] - mean[3 * child:3 * child + 3])
-                                  / std[3 * child:3 * child + 3]).to(x.dtype)
+            axes = slice(3 * child, 3 * child + 3)
+            x[..., units.columns[k]] = ((joints[..., child, :] - units.mean[axes]) / units.std[axes]).to(x.dtype)
         return x

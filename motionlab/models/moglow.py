@@ -339,7 +339,7 @@ class MoGlow(DataContacts, FootAnchor, BoneCoordinates, MotionFlow):
             target, bones = self.to_bones(target, poses[:, tau - 1:-1])
             bones = bones.sum(1)
             if self.training:                # dequantisation: the data's bones never change length
-                lengths = self._bone_units(target.device)[3][:, 0]
+                lengths = self._bone_units(target.device).columns[:, 0]
                 target[..., lengths] = target[..., lengths] + torch.randn_like(target[..., lengths])
         if self.config.foot_anchor:          # a shift by the conditioning: log-determinant 0
             target = self._anchored(target, poses[:, tau - 1:-1], control[:, tau - 1:-1], -1.0)
