@@ -3,7 +3,8 @@
     python benchmarks/moglow.py [cmu_folder] [--epochs 60] [--retrain]
 
 For each data set (the built-in synthetic data; real CMU clips when the folder exists,
-default ../shared/mocap/cmu) four laptop-size models (`MoGlowConfig()`) are trained, or
+default ../shared/mocap/cmu) four laptop-size models (`MoGlowConfig()` with their
+recipes' changes: bones as lengths and directions, `motionlab.recipes`) are trained, or
 on synthetic data (200 built-in clips, as notebook 06 and `make checkpoints`) loaded from
 `motionlab/checkpoints/` when they fit: MoGlow with history dropout 0.95, the same without
 dropout, and the Markov variant (feed-forward couplings) at the same width and widened to

@@ -39,7 +39,7 @@ def test_the_vae_recipe_matches_its_checkpoint():
 
 def test_a_moglow_variant_trains_as_its_recipe_says():
     recipe = recipes.recipe("moglow_no_dropout")
-    assert recipe.changes() == {"dropout": 0.0}
+    assert recipe.changes() == {"dropout": 0.0, "bone_coordinates": True}
     how = recipe.train_config(1000, progress=False)
     assert (how.epochs, how.batch_size, how.lr, how.progress) == (60, 32, 3e-3, False)
     assert how == training.TrainConfig(epochs=60, batch_size=32, lr=3e-3, progress=False)

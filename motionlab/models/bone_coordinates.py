@@ -1,12 +1,11 @@
-"""The upper body's bones as a length and a direction: coordinates MoGlow can model (``bone_coordinates``).
+"""Bones as a length and a direction: coordinates MoGlow and Glow can model (``bone_coordinates``).
 
 In root-local positions a bone's length is a curved function of the two joints it joins,
 and a flow that adds its noise coordinate by coordinate stretches bones, in its mode too
 (docs/feet.md: the anchored MoGlow's shins and forearms vary by 5-10 % over a run at τ = 0).
-With ``bone_coordinates`` MoGlow models each joint of the spine, neck, head and arms (the
-bones whose child is one of them, parents first) by three other numbers, in place of its
-``x, y, z``: with ``o = p_child - p_parent`` (metres) and ``o'`` the same bone in the
-previous frame,
+With ``bone_coordinates`` MoGlow models every joint but the hips and the ankles (18 bones,
+parents first; :func:`bones_of`) by three other numbers, in place of its ``x, y, z``: with
+``o = p_child - p_parent`` (metres) and ``o'`` the same bone in the previous frame,
 
     l = (ln |o| - ln |o'|) / K            the bone's change of length since the previous frame
     s = stereographic(o / |o|)            its direction, projected from a pole it never points to
@@ -24,10 +23,16 @@ so every ``l`` of the data is 0 and its density could grow without bound; in tra
 bone then changes its length by ``K`` times the flow's ``l`` per frame: the mode holds it, up
 to the flow's error, and the noise adds up over a long run as a random walk.
 
-The legs are left to ``leg_anchor`` (:mod:`motionlab.models.anchor`), which models the knees
-and toes from the hips and ankles of the same frame. Measured on the anchored MoGlow and not
-shipped (docs/feet.md, "lengths and directions"): the running bones keep within 1.3 %, and
-one training of two drags its legs on the side-step.
+The ankles keep their ``x, y, z``: a planted foot is placed where a flow models it best, and
+with the ankles in bones too (the whole leg a chain from the hips) the samples' feet sank
+3-4 cm into the floor and slid more (docs/feet.md, "Bones as lengths and directions, the legs too").
+So each shin, knee to ankle, is the one bone of its leg left free. With ``foot_anchor`` or
+``leg_anchor`` (:mod:`motionlab.models.anchor`), which place the feet, knees and toes, only
+the spine's, neck's, head's and arms' 12 bones are modelled so (measured on the anchored
+MoGlow and not shipped: one training of two drags its legs on the side-step).
+
+Glow (:mod:`motionlab.models.glow`) uses the same map in every frame of its window but the
+first, given the frame before in the same window.
 """
 from __future__ import annotations
 
@@ -45,8 +50,21 @@ LOG_LENGTH_UNIT = 1e-4
 """``K``: one unit of ``l`` is a change of length by this fraction of the bone, per frame."""
 
 FIRST_UPPER_JOINT = LOCOMOTION.names.index("Spine")
-UPPER_BONES = tuple((child, parent) for parent, child in LOCOMOTION.bones if child >= FIRST_UPPER_JOINT)
-"""``(child, parent)`` of the spine, neck, head and arms, parents first (``LOCOMOTION`` order)."""
+ALL_BONES = tuple((child, parent) for parent, child in LOCOMOTION.bones)
+"""``(child, parent)`` of every bone, parents first (``LOCOMOTION`` order)."""
+UPPER_BONES = tuple((child, parent) for child, parent in ALL_BONES if child >= FIRST_UPPER_JOINT)
+"""The spine's, neck's, head's and arms' bones: those a model whose legs are anchored has in bones."""
+
+
+ANKLES = (LOCOMOTION.names.index("LeftFoot"), LOCOMOTION.names.index("RightFoot"))
+BUT_THE_ANKLES = tuple((child, parent) for child, parent in ALL_BONES if child not in ANKLES)
+"""Every bone but the shins: the ankles keep their ``x, y, z``, where a planted foot is modelled best."""
+
+
+def bones_of(config) -> tuple[tuple[int, int], ...]:
+    """The bones ``config`` models as lengths and directions: every bone but the shins, or the
+    upper body's where the feet or legs are anchored (:mod:`motionlab.models.anchor` places them)."""
+    return UPPER_BONES if (config.foot_anchor or config.leg_anchor) else BUT_THE_ANKLES
 
 
 def check_config(config) -> None:
@@ -58,26 +76,26 @@ def check_config(config) -> None:
     if (n_pose, config.n_control) != (N_POSE, 3):
         raise ValueError(f"bone_coordinates: needs the locomotion features ({N_POSE} pose values and 3 "
                          f"controls), got {n_pose} and {config.n_control}")
-    upper = {3 * child + axis for child, _ in UPPER_BONES for axis in range(3)}
-    if set(config.constant_features) & upper:
-        raise ValueError("bone_coordinates: the spine's, neck's, head's and arms' values cannot be constant_features")
-
-
-CHILDREN = [child for child, _ in UPPER_BONES]
-PARENTS = [parent for _, parent in UPPER_BONES]
+    children = {3 * child + axis for child, _ in bones_of(config) for axis in range(3)}
+    if set(config.constant_features) & children:
+        raise ValueError("bone_coordinates: the values of a joint modelled by its bone (every joint but the hips, "
+                         "or the spine's, neck's, head's and arms' with anchored legs) cannot be constant_features")
 
 
 class BoneUnits(NamedTuple):
     """What the map needs from a normaliser (:meth:`BoneCoordinates._bone_units`)."""
 
+    children: list[int]        # each modelled bone's child joint, parents first
+    parents: list[int]         # and its parent joint
     mean: torch.Tensor         # (63,) the pose's mean, metres
     std: torch.Tensor          # (63,) its standard deviation
     modelled: torch.Tensor     # the pose features the flow models, in its column order
-    columns: torch.Tensor      # (12, 3) each bone's child's columns: l, s1, s2 in the flow's values
-    poles: torch.Tensor        # (12, 3) each bone's pole: the opposite of its mean direction
-    e1: torch.Tensor           # (12, 3) and two orthonormal axes across it
+    columns: torch.Tensor      # (bones, 3) each bone's child's columns: l, s1, s2 in the flow's values
+    poles: torch.Tensor        # (bones, 3) each bone's pole: the opposite of its mean direction
+    e1: torch.Tensor           # (bones, 3) and two orthonormal axes across it
     e2: torch.Tensor
     log_std: float             # Σ ln σ over the children's x, y, z: the log-determinant's constant
+    tiers: list[list[int]]     # the bones (indices) by depth from the joints the flow places: placed tier by tier
 
 
 class BoneCoordinates:
@@ -100,20 +118,26 @@ class BoneCoordinates:
         mean = torch.tensor(np.asarray(normalizer.mean[:N_POSE], dtype=np.float64), dtype=torch.float32, device=device)
         std = torch.tensor(np.asarray(normalizer.std[:N_POSE], dtype=np.float64), dtype=torch.float32, device=device)
         modelled = self.modelled.tolist()
-        columns = torch.tensor([[modelled.index(3 * child + axis) for axis in range(3)] for child, _ in UPPER_BONES],
+        bones = bones_of(self.config)
+        columns = torch.tensor([[modelled.index(3 * child + axis) for axis in range(3)] for child, _ in bones],
                                device=device)
         joints = mean.view(LOCOMOTION.n_joints, 3)
         poles, first, second = [], [], []
-        for child, parent in UPPER_BONES:
+        for child, parent in bones:
             pole = -(joints[child] - joints[parent])
             pole = pole / pole.norm()
             helper = torch.tensor([1.0, 0.0, 0.0] if abs(float(pole[0])) < 0.9 else [0.0, 1.0, 0.0], device=device)
             e1 = torch.linalg.cross(pole, helper)
             e1 = e1 / e1.norm()
             poles.append(pole), first.append(e1), second.append(torch.linalg.cross(pole, e1))
-        log_std = float(torch.log(std.view(-1, 3)[CHILDREN]).sum())
-        return BoneUnits(mean, std, torch.tensor(modelled, device=device), columns, torch.stack(poles),
-                         torch.stack(first), torch.stack(second), log_std)
+        children, parents = [child for child, _ in bones], [parent for _, parent in bones]
+        log_std = float(torch.log(std.view(-1, 3)[children]).sum())
+        depth = {}
+        for k, (child, parent) in enumerate(bones):          # parents first: a parent's depth is known
+            depth[child] = depth.get(parent, 0) + 1
+        tiers = [[k for k, (child, _) in enumerate(bones) if depth[child] == d] for d in range(1, max(depth.values()) + 1)]
+        return BoneUnits(children, parents, mean, std, torch.tensor(modelled, device=device), columns, torch.stack(poles),
+                         torch.stack(first), torch.stack(second), log_std, tiers)
 
     @staticmethod
     def _joints(x: torch.Tensor, units: BoneUnits) -> torch.Tensor:
@@ -129,32 +153,36 @@ class BoneCoordinates:
         before them ``previous`` (same shape): ``(y, ln |det ∂y/∂x|)``, the second ``(...)``."""
         units = self._bone_units(poses.device)
         now, before = self._joints(poses, units), self._joints(previous, units)
-        bone = now[..., CHILDREN, :] - now[..., PARENTS, :]                          # o, (..., 12, 3)
+        children, parents = units.children, units.parents
+        bone = now[..., children, :] - now[..., parents, :]                          # o, (..., bones, 3)
         length = bone.norm(dim=-1)                                                    # |o|
         u = bone / length[..., None]
         away = 1 - (u * units.poles).sum(-1)                                          # 1 - u·pole
         s1, s2 = (u * units.e1).sum(-1) / away, (u * units.e2).sum(-1) / away        # stereographic
-        length_before = (before[..., CHILDREN, :] - before[..., PARENTS, :]).norm(dim=-1)
+        length_before = (before[..., children, :] - before[..., parents, :]).norm(dim=-1)
         ell = (torch.log(length) - torch.log(length_before)) / LOG_LENGTH_UNIT
         y = poses.clone()
         y[..., units.columns] = torch.stack([ell, s1, s2], dim=-1).to(y.dtype)
         logdet = units.log_std + (-3 * torch.log(length) + 2 * torch.log1p(s1 ** 2 + s2 ** 2)).sum(-1) \
-            - len(UPPER_BONES) * (math.log(4) + math.log(LOG_LENGTH_UNIT))
+            - len(children) * (math.log(4) + math.log(LOG_LENGTH_UNIT))
         return y, logdet
 
     def from_bones(self, y: torch.Tensor, previous: torch.Tensor) -> torch.Tensor:
         """:meth:`to_bones` inverted: the poses ``(..., n_modelled)`` whose flow's values are
-        ``y``, given the frames before them; parents first, each joint placed from its parent."""
+        ``y``, given the frames before them; each joint placed from its parent, parents first (the
+        bones of one depth in the tree at once: :attr:`BoneUnits.tiers`)."""
         units = self._bone_units(y.device)
         before = self._joints(previous, units)
+        joints = self._joints(y, units)                              # the joints not in bones are already y's
+        children, parents = torch.tensor(units.children), torch.tensor(units.parents)
+        lengths = (before[..., children, :] - before[..., parents, :]).norm(dim=-1)          # |o'|, (..., bones)
+        ell, s1, s2 = (y[..., units.columns[:, axis]].float() for axis in range(3))
+        n2 = (s1 ** 2 + s2 ** 2)[..., None]                          # the stereographic projection inverted
+        u = (2 * (s1[..., None] * units.e1 + s2[..., None] * units.e2) + (n2 - 1) * units.poles) / (n2 + 1)
+        bone = (lengths * torch.exp(LOG_LENGTH_UNIT * ell))[..., None] * u                   # o, (..., bones, 3)
+        for tier in units.tiers:
+            joints[..., children[tier], :] = joints[..., parents[tier], :] + bone[..., tier, :]
         x = y.clone()
-        joints = self._joints(x, units)                              # the hips and legs are already x's
-        for k, (child, parent) in enumerate(UPPER_BONES):
-            ell, s1, s2 = (y[..., units.columns[k, axis]].float() for axis in range(3))
-            length = (before[..., child, :] - before[..., parent, :]).norm(dim=-1) * torch.exp(LOG_LENGTH_UNIT * ell)
-            n2 = (s1 ** 2 + s2 ** 2)[..., None]                      # the stereographic projection inverted
-            u = (2 * (s1[..., None] * units.e1[k] + s2[..., None] * units.e2[k]) + (n2 - 1) * units.poles[k]) / (n2 + 1)
-            joints[..., child, :] = joints[..., parent, :] + length[..., None] * u
-            axes = slice(3 * child, 3 * child + 3)
-            x[..., units.columns[k]] = ((joints[..., child, :] - units.mean[axes]) / units.std[axes]).to(x.dtype)
+        axes = (3 * children[:, None] + torch.arange(3)).to(y.device)                        # (bones, 3)
+        x[..., units.columns] = ((joints[..., children, :] - units.mean[axes]) / units.std[axes]).to(x.dtype)
         return x

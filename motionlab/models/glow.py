@@ -43,6 +43,14 @@ networks seeing the labels beside the control. Training labels come from the dat
 (:func:`motionlab.contacts.contact_labels`); sampling draws the contacts first, then the
 pose. Both parts are exact, and at the data's own labels the joint likelihood bounds the
 pose's from below (``p(x | u) ≥ p(x, c(x) | u)``).
+
+**Bones as lengths and directions** (``bone_coordinates``, off by default, not in the paper;
+:mod:`motionlab.models.bone_coordinates`, as MoGlow's). In every frame but the first, each
+joint but the hips and ankles is modelled by its bone's change of log-length since the frame
+before and its direction. As with the anchor, the frame before is in the window: the map
+is block-triangular over time, its log-determinant the sum of the frames', and sampling
+inverts it frame by frame. The first frame keeps its ``x, y, z``, and every later frame
+the lengths the flow drew for it.
 """
 from __future__ import annotations
 
@@ -56,6 +64,8 @@ from .. import checks
 from .base import Generated, check_tensor, generator_for, per_frame_nll
 from . import anchor
 from .anchor import FootAnchor
+from . import bone_coordinates
+from .bone_coordinates import BoneCoordinates
 from . import contact_head
 from .contact_head import N_CONTACTS, ContactHead, DataContacts
 from .flows import ConvCouplingNet, GaussianPrior, MotionFlow, MultiScaleFlow, henter_schedule
@@ -88,6 +98,11 @@ class GlowConfig:
         contact_head: model the feet's contacts beside the pose, ``p(c | u) p(x | c, u)``
             (:mod:`motionlab.models.contact_head`); needs ``conditional``, the locomotion
             features and, to train, the model's normaliser.
+        bone_coordinates: model every joint but the hips and ankles (with ``foot_anchor``
+            or ``leg_anchor``: the spine's, neck's, head's and arms'), in every frame but the
+            first, by its bone's change of length and its direction
+            (:mod:`motionlab.models.bone_coordinates`); needs ``conditional``, the locomotion
+            features and the model's normaliser. Not in the paper.
     """
 
     n_features: int = 66
@@ -103,6 +118,7 @@ class GlowConfig:
     foot_anchor: bool = False
     leg_anchor: bool = False
     contact_head: bool = False
+    bone_coordinates: bool = False
 
     def __post_init__(self):
         checks.config(self)
@@ -128,6 +144,9 @@ class GlowConfig:
         anchor.check_leg_config(self)
         anchor.check_config(self)
         contact_head.check_config(self)
+        if self.bone_coordinates and not self.conditional:
+            raise ValueError("bone_coordinates: models the pose given the control; needs conditional=True")
+        bone_coordinates.check_config(self)
 
     @classmethod
     def paper(cls, **changes) -> "GlowConfig":
@@ -136,7 +155,7 @@ class GlowConfig:
         return replace(cls(levels=4, steps=32, hidden=512, window=80, fps=20.0, conditional=True), **changes)
 
 
-class Glow(DataContacts, FootAnchor, MotionFlow):
+class Glow(DataContacts, FootAnchor, BoneCoordinates, MotionFlow):
     """The fixed-length sequence Glow of §3.3-3.4.
 
     Batches are normalised feature windows ``(batch, frames, n_features)``, ``frames`` a
@@ -183,10 +202,32 @@ class Glow(DataContacts, FootAnchor, MotionFlow):
         x, cond = self.split_features(batch)
         if self.config.foot_anchor:          # triangular, ones on the diagonal: log-determinant 0
             x = self.anchor_window(x, cond, -1.0)
+        bones = x.new_zeros(x.shape[0])
+        if self.config.bone_coordinates:     # block-triangular: the frames' log-determinants added
+            x, bones = self.window_to_bones(x)
         if self.contact_head is None:
-            return (*self.flow(x, cond), x.new_zeros(x.shape[0]))
+            z, logdet = self.flow(x, cond)
+            return z, logdet + bones, x.new_zeros(x.shape[0])
         labels = self.data_contacts(batch)
-        return (*self.flow(x, self.with_contacts(cond, labels)), self.contact_head.log_prob(labels, cond))
+        z, logdet = self.flow(x, self.with_contacts(cond, labels))
+        return z, logdet + bones, self.contact_head.log_prob(labels, cond)
+
+    def window_to_bones(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """``(y, ln |det ∂y/∂x|)`` of windows ``x`` ``(batch, frames, n_modelled)``: every frame
+        but the first in bones given the frame before (``bone_coordinates``); in training each
+        length change gets standard-normal noise (dequantisation, as MoGlow's)."""
+        later, logdet = self.to_bones(x[:, 1:], x[:, :-1])
+        if self.training:
+            lengths = self._bone_units(x.device).columns[:, 0]
+            later[..., lengths] = later[..., lengths] + torch.randn_like(later[..., lengths])
+        return torch.cat([x[:, :1], later], dim=1), logdet.sum(1)
+
+    def window_from_bones(self, y: torch.Tensor) -> torch.Tensor:
+        """:meth:`window_to_bones` inverted, frame by frame from the first."""
+        frames = [y[:, 0]]
+        for t in range(1, y.shape[1]):
+            frames.append(self.from_bones(y[:, t], frames[-1]))
+        return torch.stack(frames, dim=1)
 
     def encode(self, batch: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """``(z, logdet)``: the latent ``(batch, frames * n_modelled)`` and ``Σ ln|det J|`` ``(batch,)``
@@ -261,6 +302,8 @@ class Glow(DataContacts, FootAnchor, MotionFlow):
     def _inverse(self, z: torch.Tensor, control: torch.Tensor | None, contacts: torch.Tensor | None = None) -> torch.Tensor:
         """The modelled values of latents ``z``: the flow inverted, then the anchoring."""
         x = self.flow.inverse(z, self.with_contacts(control, contacts))
+        if self.config.bone_coordinates:
+            x = self.window_from_bones(x)
         return self.anchor_window(x, control, 1.0) if self.config.foot_anchor else x
 
     def _check_control(self, control, n: int, frames: int | None):
@@ -349,6 +392,10 @@ class Glow(DataContacts, FootAnchor, MotionFlow):
                          "(foot_anchor: triangular over the window, log-determinant 0)")
         if self.config.leg_anchor:
             lines.append("and the toes less their ankles, the knees less the midpoint of hip and ankle (leg_anchor)")
+        if self.config.bone_coordinates:
+            lines.append(("the spine, neck, head and arms" if (self.config.foot_anchor or self.config.leg_anchor)
+                          else "every joint but the hips and ankles") + ", every frame but the first, modelled by "
+                         "its bone's change of length and its direction (bone_coordinates)")
         if self.config.contact_head:
             lines.append(f"beside the flow: p(contacts | control), {N_CONTACTS} labels per frame drawn frame by frame, "
                          f"which the coupling networks see beside the control (contact_head)")
