@@ -202,13 +202,14 @@ def test_train_or_load_prefers_a_matching_pretrained_checkpoint_and_never_writes
     assert shipped.stat().st_mtime_ns == stamp
 
 
-def test_shipped_moglow_checkpoints_fit_the_default_config():
+def test_shipped_moglow_checkpoints_fit_notebook_06s_config():
     # motionlab/checkpoints holds what `make checkpoints` makes; notebook 06 relies on them matching
+    # its CONFIG: the default with the bones as lengths and directions
     from dataclasses import replace
     from pathlib import Path
     from motionlab.models.moglow import MoGlowConfig
     folder = Path(__file__).resolve().parents[1] / "motionlab" / "checkpoints"
-    default = MoGlowConfig()
+    default = MoGlowConfig(bone_coordinates=True)
     for name, config in [("dropout", default), ("no_dropout", replace(default, dropout=0.0)),
                          ("markov", replace(default, recurrent=False)),
                          ("markov_matched", replace(default, recurrent=False, hidden=205))]:
