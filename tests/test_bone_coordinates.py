@@ -11,7 +11,7 @@ import torch
 
 from motionlab import metrics, training
 from motionlab.models import bone_coordinates as bones
-from motionlab.models.glow import Glow, GlowConfig
+from motionlab.models.glow import FIRST_FRAME_UNIT, Glow, GlowConfig
 from motionlab.models.moglow import MoGlow, MoGlowConfig
 from motionlab.representation import to_positions
 from motionlab.skeleton import LOCOMOTION
@@ -215,5 +215,7 @@ def test_glow_sampling_inverts_the_likelihoods_map_and_keeps_the_first_frames_le
         GLOW.fps))
     np.testing.assert_allclose(lengths[..., MODELLED], np.broadcast_to(lengths[:, :1, MODELLED], lengths[..., MODELLED].shape),
                                rtol=1e-4)                                    # ... so every frame keeps the first's
+    first, _ = model.to_bones(values[:, :1], torch.zeros_like(values[:, :1]), FIRST_FRAME_UNIT)
+    assert torch.equal(model.window_to_bones(values)[0][:, :1], first)      # the first frame: against the mean pose
     out = model.generate(features[:16, -3:], n=2, temperature=0.5)
     assert out.features.shape == (2, 16, 66) and np.isfinite(out.features).all()

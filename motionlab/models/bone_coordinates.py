@@ -148,7 +148,8 @@ class BoneCoordinates:
         pose[..., modelled] = x.float() * std[modelled] + mean[modelled]
         return pose.unflatten(-1, (LOCOMOTION.n_joints, 3))
 
-    def to_bones(self, poses: torch.Tensor, previous: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    def to_bones(self, poses: torch.Tensor, previous: torch.Tensor,
+                 unit: float = LOG_LENGTH_UNIT) -> tuple[torch.Tensor, torch.Tensor]:
         """The flow's values of ``poses`` ``(..., n_modelled)`` (normalised) given the frames
         before them ``previous`` (same shape): ``(y, ln |det ∂y/∂x|)``, the second ``(...)``."""
         units = self._bone_units(poses.device)
@@ -160,14 +161,14 @@ class BoneCoordinates:
         away = 1 - (u * units.poles).sum(-1)                                          # 1 - u·pole
         s1, s2 = (u * units.e1).sum(-1) / away, (u * units.e2).sum(-1) / away        # stereographic
         length_before = (before[..., children, :] - before[..., parents, :]).norm(dim=-1)
-        ell = (torch.log(length) - torch.log(length_before)) / LOG_LENGTH_UNIT
+        ell = (torch.log(length) - torch.log(length_before)) / unit
         y = poses.clone()
         y[..., units.columns] = torch.stack([ell, s1, s2], dim=-1).to(y.dtype)
         logdet = units.log_std + (-3 * torch.log(length) + 2 * torch.log1p(s1 ** 2 + s2 ** 2)).sum(-1) \
-            - len(children) * (math.log(4) + math.log(LOG_LENGTH_UNIT))
+            - len(children) * (math.log(4) + math.log(unit))
         return y, logdet
 
-    def from_bones(self, y: torch.Tensor, previous: torch.Tensor) -> torch.Tensor:
+    def from_bones(self, y: torch.Tensor, previous: torch.Tensor, unit: float = LOG_LENGTH_UNIT) -> torch.Tensor:
         """:meth:`to_bones` inverted: the poses ``(..., n_modelled)`` whose flow's values are
         ``y``, given the frames before them; each joint placed from its parent, parents first (the
         bones of one depth in the tree at once: :attr:`BoneUnits.tiers`)."""
@@ -179,7 +180,7 @@ class BoneCoordinates:
         ell, s1, s2 = (y[..., units.columns[:, axis]].float() for axis in range(3))
         n2 = (s1 ** 2 + s2 ** 2)[..., None]                          # the stereographic projection inverted
         u = (2 * (s1[..., None] * units.e1 + s2[..., None] * units.e2) + (n2 - 1) * units.poles) / (n2 + 1)
-        bone = (lengths * torch.exp(LOG_LENGTH_UNIT * ell))[..., None] * u                   # o, (..., bones, 3)
+        bone = (lengths * torch.exp(unit * ell))[..., None] * u                   # o, (..., bones, 3)
         for tier in units.tiers:
             joints[..., children[tier], :] = joints[..., parents[tier], :] + bone[..., tier, :]
         x = y.clone()

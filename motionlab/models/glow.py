@@ -49,8 +49,10 @@ pose's from below (``p(x | u) ≥ p(x, c(x) | u)``).
 joint but the hips and ankles is modelled by its bone's change of log-length since the frame
 before and its direction. As with the anchor, the frame before is in the window: the map
 is block-triangular over time, its log-determinant the sum of the frames', and sampling
-inverts it frame by frame. The first frame keeps its ``x, y, z``, and every later frame
-the lengths the flow drew for it.
+inverts it frame by frame. The first frame's bones are modelled against the data's mean
+pose, each log-length in units of :data:`FIRST_FRAME_UNIT`, so that every frame's channels
+hold lengths and directions (with the first frame's ``x, y, z`` in them instead, some
+samples of held-out windows were not finite: docs/feet.md, "Glow in bone coordinates").
 """
 from __future__ import annotations
 
@@ -66,6 +68,10 @@ from . import anchor
 from .anchor import FootAnchor
 from . import bone_coordinates
 from .bone_coordinates import BoneCoordinates
+
+FIRST_FRAME_UNIT = 0.05
+"""The first frame's bones are modelled against the data's mean pose, each log-length in units
+of 0.05 (bodies differ in their bones' lengths by several per cent)."""
 from . import contact_head
 from .contact_head import N_CONTACTS, ContactHead, DataContacts
 from .flows import ConvCouplingNet, GaussianPrior, MotionFlow, MultiScaleFlow, henter_schedule
@@ -214,17 +220,19 @@ class Glow(DataContacts, FootAnchor, BoneCoordinates, MotionFlow):
 
     def window_to_bones(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """``(y, ln |det ∂y/∂x|)`` of windows ``x`` ``(batch, frames, n_modelled)``: every frame
-        but the first in bones given the frame before (``bone_coordinates``); in training each
-        length change gets standard-normal noise (dequantisation, as MoGlow's)."""
+        in bones (``bone_coordinates``), the first against the data's mean pose, the others given
+        the frame before; in training each change of length between frames gets standard-normal
+        noise (dequantisation, as MoGlow's)."""
         later, logdet = self.to_bones(x[:, 1:], x[:, :-1])
         if self.training:
             lengths = self._bone_units(x.device).columns[:, 0]
             later[..., lengths] = later[..., lengths] + torch.randn_like(later[..., lengths])
-        return torch.cat([x[:, :1], later], dim=1), logdet.sum(1)
+        first, first_logdet = self.to_bones(x[:, :1], torch.zeros_like(x[:, :1]), FIRST_FRAME_UNIT)
+        return torch.cat([first, later], dim=1), logdet.sum(1) + first_logdet.sum(1)
 
     def window_from_bones(self, y: torch.Tensor) -> torch.Tensor:
         """:meth:`window_to_bones` inverted, frame by frame from the first."""
-        frames = [y[:, 0]]
+        frames = [self.from_bones(y[:, 0], torch.zeros_like(y[:, 0]), FIRST_FRAME_UNIT)]
         for t in range(1, y.shape[1]):
             frames.append(self.from_bones(y[:, t], frames[-1]))
         return torch.stack(frames, dim=1)
