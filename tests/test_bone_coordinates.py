@@ -213,8 +213,8 @@ def test_glow_sampling_inverts_the_likelihoods_map_and_keeps_the_first_frames_le
     lengths = LOCOMOTION.bone_lengths(to_positions(
         normalizer.denormalize(model.join_features(model.window_from_bones(y), x[..., -3:]).double().numpy()),
         GLOW.fps))
-    np.testing.assert_allclose(lengths[..., MODELLED], np.broadcast_to(lengths[:, :1, MODELLED], lengths[..., MODELLED].shape),
-                               rtol=1e-4)                                    # ... so every frame keeps the first's
+    kept = np.broadcast_to(lengths[:, :1, MODELLED], lengths[..., MODELLED].shape)   # ... so every frame keeps
+    np.testing.assert_allclose(lengths[..., MODELLED], kept, rtol=1e-4)                # the first frame's lengths
     first, _ = model.to_bones(values[:, :1], torch.zeros_like(values[:, :1]), FIRST_FRAME_UNIT)
     assert torch.equal(model.window_to_bones(values)[0][:, :1], first)      # the first frame: against the mean pose
     out = model.generate(features[:16, -3:], n=2, temperature=0.5)

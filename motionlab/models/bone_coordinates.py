@@ -91,6 +91,7 @@ class BoneUnits(NamedTuple):
     std: torch.Tensor          # (63,) its standard deviation
     modelled: torch.Tensor     # the pose features the flow models, in its column order
     columns: torch.Tensor      # (bones, 3) each bone's child's columns: l, s1, s2 in the flow's values
+    axes: torch.Tensor         # (bones, 3) and its x, y, z among the 63 pose values
     poles: torch.Tensor        # (bones, 3) each bone's pole: the opposite of its mean direction
     e1: torch.Tensor           # (bones, 3) and two orthonormal axes across it
     e2: torch.Tensor
@@ -135,9 +136,11 @@ class BoneCoordinates:
         depth = {}
         for k, (child, parent) in enumerate(bones):          # parents first: a parent's depth is known
             depth[child] = depth.get(parent, 0) + 1
-        tiers = [[k for k, (child, _) in enumerate(bones) if depth[child] == d] for d in range(1, max(depth.values()) + 1)]
-        return BoneUnits(children, parents, mean, std, torch.tensor(modelled, device=device), columns, torch.stack(poles),
-                         torch.stack(first), torch.stack(second), log_std, tiers)
+        tiers = [[k for k, (child, _) in enumerate(bones) if depth[child] == d]
+                 for d in range(1, max(depth.values()) + 1)]
+        axes = torch.tensor([[3 * child + axis for axis in range(3)] for child in children], device=device)
+        return BoneUnits(children, parents, mean, std, torch.tensor(modelled, device=device), columns, axes,
+                         torch.stack(poles), torch.stack(first), torch.stack(second), log_std, tiers)
 
     @staticmethod
     def _joints(x: torch.Tensor, units: BoneUnits) -> torch.Tensor:
@@ -184,6 +187,6 @@ class BoneCoordinates:
         for tier in units.tiers:
             joints[..., children[tier], :] = joints[..., parents[tier], :] + bone[..., tier, :]
         x = y.clone()
-        axes = (3 * children[:, None] + torch.arange(3)).to(y.device)                        # (bones, 3)
-        x[..., units.columns] = ((joints[..., children, :] - units.mean[axes]) / units.std[axes]).to(x.dtype)
+        placed = (joints[..., children, :] - units.mean[units.axes]) / units.std[units.axes]
+        x[..., units.columns] = placed.to(x.dtype)
         return x

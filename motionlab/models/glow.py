@@ -68,14 +68,14 @@ from . import anchor
 from .anchor import FootAnchor
 from . import bone_coordinates
 from .bone_coordinates import BoneCoordinates
-
-FIRST_FRAME_UNIT = 0.05
-"""The first frame's bones are modelled against the data's mean pose, each log-length in units
-of 0.05 (bodies differ in their bones' lengths by several per cent)."""
 from . import contact_head
 from .contact_head import N_CONTACTS, ContactHead, DataContacts
 from .flows import ConvCouplingNet, GaussianPrior, MotionFlow, MultiScaleFlow, henter_schedule
 from .modelcard import ModelCard
+
+FIRST_FRAME_UNIT = 0.05
+"""The first frame's bones are modelled against the data's mean pose, each log-length in units
+of 0.05 (bodies differ in their bones' lengths by several per cent)."""
 
 
 @dataclass(frozen=True)
@@ -105,8 +105,9 @@ class GlowConfig:
             (:mod:`motionlab.models.contact_head`); needs ``conditional``, the locomotion
             features and, to train, the model's normaliser.
         bone_coordinates: model every joint but the hips and ankles (with ``foot_anchor``
-            or ``leg_anchor``: the spine's, neck's, head's and arms'), in every frame but the
-            first, by its bone's change of length and its direction
+            or ``leg_anchor``: the spine's, neck's, head's and arms') by its bone's change of
+            length since the frame before and its direction (the first frame's: against the
+            data's mean pose, :data:`FIRST_FRAME_UNIT`)
             (:mod:`motionlab.models.bone_coordinates`); needs ``conditional``, the locomotion
             features and the model's normaliser. Not in the paper.
     """
@@ -308,7 +309,8 @@ class Glow(DataContacts, FootAnchor, BoneCoordinates, MotionFlow):
         return contacts
 
     def _inverse(self, z: torch.Tensor, control: torch.Tensor | None, contacts: torch.Tensor | None = None) -> torch.Tensor:
-        """The modelled values of latents ``z``: the flow inverted, then the anchoring."""
+        """The modelled values of latents ``z``: the flow inverted, the joints placed from
+        their bones (``bone_coordinates``), then the anchoring."""
         x = self.flow.inverse(z, self.with_contacts(control, contacts))
         if self.config.bone_coordinates:
             x = self.window_from_bones(x)
@@ -402,8 +404,8 @@ class Glow(DataContacts, FootAnchor, BoneCoordinates, MotionFlow):
             lines.append("and the toes less their ankles, the knees less the midpoint of hip and ankle (leg_anchor)")
         if self.config.bone_coordinates:
             lines.append(("the spine, neck, head and arms" if (self.config.foot_anchor or self.config.leg_anchor)
-                          else "every joint but the hips and ankles") + ", every frame but the first, modelled by "
-                         "its bone's change of length and its direction (bone_coordinates)")
+                          else "every joint but the hips and ankles") + " modelled by its bone's change of length "
+                         "and its direction, the first frame's against the mean pose (bone_coordinates)")
         if self.config.contact_head:
             lines.append(f"beside the flow: p(contacts | control), {N_CONTACTS} labels per frame drawn frame by frame, "
                          f"which the coupling networks see beside the control (contact_head)")

@@ -65,8 +65,8 @@ from below. Sampling, and :class:`~motionlab.engine.stream.MoGlowStream`, draw t
 first, frame by frame (:meth:`MoGlow.draw_contacts`).
 
 **Bones as lengths and directions** (``bone_coordinates``, off by default, not in the paper;
-:mod:`motionlab.models.bone_coordinates`). Every joint but the hips (with the feet or legs
-anchored: the spine's, neck's, head's and arms') is
+:mod:`motionlab.models.bone_coordinates`). Every joint but the hips and ankles (with the
+feet or legs anchored: the spine's, neck's, head's and arms') is
 modelled by its bone's change of length since the previous frame and its direction, a
 smooth bijection given the conditioning whose log-determinant is added: the likelihood stays
 exact, and the flow's mode keeps each of those bones at its length.
@@ -138,7 +138,7 @@ class MoGlowConfig:
             cond_t) p(x_t | c_t, cond_t)`` (:mod:`motionlab.models.contact_head`: the head
             sees the frame's conditioning, the coupling networks also the frame's labels);
             needs the locomotion features and, to train, the model's normaliser. Not in the paper.
-        bone_coordinates: model every joint but the hips (with ``foot_anchor`` or
+        bone_coordinates: model every joint but the hips and ankles (with ``foot_anchor`` or
             ``leg_anchor``: the spine's, neck's, head's and arms') by its bone's change of
             length and its direction (:mod:`motionlab.models.bone_coordinates`), so that
             those bones keep their length; needs the model's normaliser. Not in the paper.
@@ -536,7 +536,8 @@ class MoGlow(DataContacts, FootAnchor, BoneCoordinates, MotionFlow):
              if c.leg_anchor else []) + \
             ([f"beside the flow: p(contacts | earlier contacts, conditioning), {N_CONTACTS} labels per frame, "
               "which the coupling networks see beside the conditioning (contact_head)"] if c.contact_head else []) + \
-            ([("spine, neck, head and arms" if (c.foot_anchor or c.leg_anchor) else "every joint but the hips")
+            ([("spine, neck, head and arms" if (c.foot_anchor or c.leg_anchor)
+               else "every joint but the hips and ankles")
               + " modelled by each bone's change of length and its direction (bone_coordinates)"]
              if c.bone_coordinates else [])
 
