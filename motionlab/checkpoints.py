@@ -200,7 +200,9 @@ def _meta_model(path: Path, model_class: type, config, state_dict: dict) -> None
         for hook in hooks:
             hook.remove()
     expected = model.state_dict()
-    missing, unexpected = sorted(set(expected) - set(state_dict)), sorted(set(state_dict) - set(expected))
+    optional = set(getattr(model_class, "optional_state", ()))      # buffers added since: filled in by the model
+    missing = sorted(k for k in set(expected) - set(state_dict) if k not in optional)
+    unexpected = sorted(set(state_dict) - set(expected))
     wrong = [f"{k} {tuple(state_dict[k].shape)} != {tuple(v.shape)}" for k, v in expected.items()
              if k in state_dict and state_dict[k].shape != v.shape]
     if missing or unexpected or wrong:

@@ -1,5 +1,6 @@
 """The fixed-length sequence Glow: exact likelihood, invertibility, sampling, training."""
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -178,8 +179,45 @@ def test_checkpoint_round_trip(synthetic, tmp_path):
     training.save_checkpoint(path, model, synthetic)
     loaded = training.load_checkpoint(path, config=SMALL).model
     batch = synthetic.test.windows[:4]
-    assert torch.equal(loaded.log_likelihood(batch), model.log_likelihood(batch))
+    assert torch.equal(loaded.log_likelihood(batch), model.eval().log_likelihood(batch))   # range held alike
 
+
+
+def test_the_control_is_held_within_the_range_seen_in_training(synthetic, tmp_path):
+    windows = synthetic.train.windows[:16]
+    model = _randomise(Glow(SMALL))
+    assert torch.equal(model.seen_control(4 * windows[..., 63:]), 4 * windows[..., 63:])   # none recorded: no limit
+    model.train()
+    model.log_likelihood(windows)                                             # training records the range
+    low, high = model.control_range
+    assert torch.equal(low, windows[..., 63:].amin(dim=(0, 1))) and torch.equal(high, windows[..., 63:].amax(dim=(0, 1)))
+    model.log_likelihood(3 * windows)                                         # and widens it
+    assert torch.equal(model.control_range[1], torch.maximum(high, 3 * windows[..., 63:].amax(dim=(0, 1))))
+    model.control_range.copy_(torch.stack([low, high]))
+    model.eval()
+    # beyond the range the networks see it clipped: likelihood and samples as for the clipped control
+    far = windows.clone()
+    far[..., 63:] = 4 * far[..., 63:] + 2
+    clipped = far.clone()
+    clipped[..., 63:] = torch.maximum(torch.minimum(far[..., 63:], high), low)
+    assert torch.allclose(model.log_likelihood(far), model.log_likelihood(clipped))
+    draw = model.sample(len(far), far[..., 63:], temperature=0.5, generator=torch.Generator().manual_seed(0))
+    same = model.sample(len(far), clipped[..., 63:], temperature=0.5, generator=torch.Generator().manual_seed(0))
+    assert torch.equal(draw[..., 63:], far[..., 63:])                        # the output follows the control given
+    assert torch.allclose(draw[..., :63], same[..., :63])
+    z, _ = model.encode(far)
+    assert (model.decode(z, far[..., 63:]) - far).abs().max() < 1e-4         # still one invertible map
+    # saved and loaded with it; a file saved before the range existed loads without a limit
+    path = tmp_path / "glow.pt"
+    training.save_checkpoint(path, model, synthetic)
+    assert torch.equal(training.load_checkpoint(path).model.control_range, model.control_range)
+    state = torch.load(path, weights_only=True)
+    del state["state_dict"]["control_range"]
+    torch.save(state, path)
+    older = training.load_checkpoint(path).model
+    assert bool((older.control_range[0] > older.control_range[1]).all())
+    assert torch.equal(older.seen_control(far[..., 63:]), far[..., 63:])
+    assert not hasattr(Glow(replace(SMALL, conditional=False)), "control_range")
 
 def test_bad_configs_and_inputs(synthetic):
     with pytest.raises(ValueError, match=r"window: 20 frames is not a multiple of 2\^\(levels - 1\) = 8"):

@@ -219,6 +219,20 @@ def test_shipped_moglow_checkpoints_fit_notebook_06s_config():
         assert len(checkpoint.history.train) == 6000                         # 60 epochs of 100 steps
 
 
+
+def test_shipped_glow_checkpoints_fit_notebook_05s_shipped_config():
+    # notebook 05 trains the paper's Glow (joint positions) and loads the shipped ones, its
+    # SHIPPED config: the same size with the bones as lengths and directions, with and without a head
+    from pathlib import Path
+    from motionlab.models.glow import GlowConfig
+    folder = Path(__file__).resolve().parents[1] / "motionlab" / "checkpoints"
+    for name, config in [("glow", GlowConfig(bone_coordinates=True)),
+                         ("glow_contacts", GlowConfig(bone_coordinates=True, contact_head=True))]:
+        checkpoint = training.load_checkpoint(folder / f"{name}.pt", config=config)
+        assert checkpoint.description["source"] == "synthetic" and checkpoint.description["window_frames"] == 80
+        assert len(checkpoint.description["clips"]["train"]) == 160          # 200 clips: 160 / 20 / 20
+        assert len(checkpoint.history.train) == 3600                         # 20 epochs of 180 steps
+
 def test_the_step_time_estimate_leaves_the_model_and_generators_alone(capsys):
     model = ConvAutoencoder(ConvAEConfig(window=8, filters=8, width=3))
     before = {k: v.clone() for k, v in model.state_dict().items()}

@@ -27,6 +27,15 @@ reports nats and bits per frame, in normalised units, or in the data's own units
 (metres, m/s, rad/s) when given the normaliser: ``ln p_data(x) = ln p(x / σ) - Σ_d ln σ_d``
 per frame (the normalisation's Jacobian).
 
+**The control's range.** A conditional Glow records, while it trains, the range of each
+control channel its coupling networks have seen (``control_range``); otherwise the control
+they see is held within it (the output still follows the control given). Beyond that range
+a convolutional coupling extrapolates, and the flow's inverse can overflow: on real CMU
+windows, whose sideways and turning speeds reach twice the built-in data's, a Glow in bone
+coordinates made samples that were not finite at every temperature without the limit, and
+with it none at τ ≤ 0.5 (docs/feet.md, "Glow in bone coordinates"). A file saved before the
+range was recorded loads without one (no limit).
+
 **Feet anchored where they were planted** (``foot_anchor``, off by default; as
 :class:`~motionlab.models.moglow.MoGlowConfig`'s). The flow models, for the ``x`` and ``z``
 of each ankle and toe in every frame but the first, the value less where that joint would
@@ -172,6 +181,8 @@ class Glow(DataContacts, FootAnchor, BoneCoordinates, MotionFlow):
     ``z`` is ``(batch, frames * n_modelled)``.
     """
 
+    optional_state = ("control_range",)     # checkpoints saved before it load without a limit
+
     def __init__(self, config: GlowConfig = GlowConfig()):
         super().__init__()
         self.config = config
@@ -185,6 +196,31 @@ class Glow(DataContacts, FootAnchor, BoneCoordinates, MotionFlow):
         self._init_foot_anchor(config)
         self.contact_head = ContactHead(config.n_control, config.hidden) if config.contact_head else None
         self.nll_is = "bound, with contacts" if config.contact_head else "exact"
+        if config.conditional:      # (low; high) per control channel, low > high until training sees one
+            self.register_buffer("control_range", torch.tensor([[1.0], [-1.0]]).repeat(1, config.n_control))
+
+    def _load_from_state_dict(self, state_dict, prefix, *args, **kwargs):
+        if hasattr(self, "control_range") and prefix + "control_range" not in state_dict:
+            state_dict[prefix + "control_range"] = self.control_range.clone()     # a file from before it: no limit
+        super()._load_from_state_dict(state_dict, prefix, *args, **kwargs)
+
+    def seen_control(self, control: torch.Tensor | None, record: bool = False) -> torch.Tensor | None:
+        """The control ``(batch, frames, n_control)`` as the coupling networks and the contact
+        head see it: with ``record`` (training), it widens ``control_range`` and passes as it
+        is; otherwise it is held within the range recorded (unchanged before any is)."""
+        if control is None:
+            return None
+        low, high = self.control_range
+        if record:
+            with torch.no_grad():
+                empty = low > high
+                new_low = torch.where(empty, control.amin(dim=(0, 1)), torch.minimum(low, control.amin(dim=(0, 1))))
+                new_high = torch.where(empty, control.amax(dim=(0, 1)), torch.maximum(high, control.amax(dim=(0, 1))))
+                self.control_range.copy_(torch.stack([new_low, new_high]))
+            return control
+        if (low > high).any():
+            return control
+        return torch.maximum(torch.minimum(control, high), low)
 
     # -- data in and out -----------------------------------------------------------------
 
@@ -212,6 +248,7 @@ class Glow(DataContacts, FootAnchor, BoneCoordinates, MotionFlow):
         bones = x.new_zeros(x.shape[0])
         if self.config.bone_coordinates:     # block-triangular: the frames' log-determinants added
             x, bones = self.window_to_bones(x)
+        cond = self.seen_control(cond, record=self.training)
         if self.contact_head is None:
             z, logdet = self.flow(x, cond)
             return z, logdet + bones, x.new_zeros(x.shape[0])
@@ -301,7 +338,7 @@ class Glow(DataContacts, FootAnchor, BoneCoordinates, MotionFlow):
                 raise ValueError("contacts: this Glow has no contact head (contact_head=False)")
             return None
         if contacts is None:
-            return self.contact_head.sample(control, generator)
+            return self.contact_head.sample(self.seen_control(control), generator)
         contacts = torch.as_tensor(contacts, dtype=torch.float32, device=control.device)
         if contacts.shape != (*control.shape[:2], N_CONTACTS) or not ((contacts == 0) | (contacts == 1)).all():
             raise ValueError(f"contacts: expected 0/1 labels {(*control.shape[:2], N_CONTACTS)} (ankles and toes), "
@@ -311,7 +348,7 @@ class Glow(DataContacts, FootAnchor, BoneCoordinates, MotionFlow):
     def _inverse(self, z: torch.Tensor, control: torch.Tensor | None, contacts: torch.Tensor | None = None) -> torch.Tensor:
         """The modelled values of latents ``z``: the flow inverted, the joints placed from
         their bones (``bone_coordinates``), then the anchoring."""
-        x = self.flow.inverse(z, self.with_contacts(control, contacts))
+        x = self.flow.inverse(z, self.with_contacts(self.seen_control(control), contacts))
         if self.config.bone_coordinates:
             x = self.window_from_bones(x)
         return self.anchor_window(x, control, 1.0) if self.config.foot_anchor else x
