@@ -219,3 +219,16 @@ def test_glow_sampling_inverts_the_likelihoods_map_and_keeps_the_first_frames_le
     assert torch.equal(model.window_to_bones(values)[0][:, :1], first)      # the first frame: against the mean pose
     out = model.generate(features[:16, -3:], n=2, temperature=0.5)
     assert out.features.shape == (2, 16, 66) and np.isfinite(out.features).all()
+
+
+def test_glows_window_of_bones_is_placed_at_once_as_frame_by_frame(walker):
+    # the running sum of the log-lengths over the window is the frame-by-frame inverse
+    features, normalizer = walker
+    x = windows(features, normalizer)
+    model = glow_like(GLOW_BONED, normalizer, x)
+    y = model.flow.inverse(0.7 * torch.randn(3, 16 * model.n_modelled, generator=torch.Generator().manual_seed(2)),
+                           x[..., -3:])
+    frames = [model.from_bones(y[:, 0], torch.zeros_like(y[:, 0]), FIRST_FRAME_UNIT)]
+    for t in range(1, y.shape[1]):
+        frames.append(model.from_bones(y[:, t], frames[-1]))
+    assert torch.allclose(model.window_from_bones(y), torch.stack(frames, dim=1), atol=1e-4)

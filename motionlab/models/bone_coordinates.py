@@ -177,13 +177,22 @@ class BoneCoordinates:
         bones of one depth in the tree at once: :attr:`BoneUnits.tiers`)."""
         units = self._bone_units(y.device)
         before = self._joints(previous, units)
+        children, parents = units.children, units.parents
+        lengths = (before[..., children, :] - before[..., parents, :]).norm(dim=-1)          # |o'|, (..., bones)
+        return self.place_bones(y, torch.log(lengths) + unit * y[..., units.columns[:, 0]].float())
+
+    def place_bones(self, y: torch.Tensor, log_lengths: torch.Tensor) -> torch.Tensor:
+        """The poses ``(..., n_modelled)`` whose bones have the directions in ``y`` (the flow's
+        values) and the lengths ``exp(log_lengths)`` ``(..., bones)``, in metres; the joints not
+        in bones are ``y``'s. The last step of :meth:`from_bones`, and of a whole Glow window at
+        once, whose log-lengths are a sum over its frames (``Glow.window_from_bones``)."""
+        units = self._bone_units(y.device)
         joints = self._joints(y, units)                              # the joints not in bones are already y's
         children, parents = torch.tensor(units.children), torch.tensor(units.parents)
-        lengths = (before[..., children, :] - before[..., parents, :]).norm(dim=-1)          # |o'|, (..., bones)
-        ell, s1, s2 = (y[..., units.columns[:, axis]].float() for axis in range(3))
+        s1, s2 = (y[..., units.columns[:, axis]].float() for axis in (1, 2))
         n2 = (s1 ** 2 + s2 ** 2)[..., None]                          # the stereographic projection inverted
         u = (2 * (s1[..., None] * units.e1 + s2[..., None] * units.e2) + (n2 - 1) * units.poles) / (n2 + 1)
-        bone = (lengths * torch.exp(unit * ell))[..., None] * u                   # o, (..., bones, 3)
+        bone = torch.exp(log_lengths)[..., None] * u                                # o, (..., bones, 3)
         for tier in units.tiers:
             joints[..., children[tier], :] = joints[..., parents[tier], :] + bone[..., tier, :]
         x = y.clone()

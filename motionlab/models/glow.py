@@ -58,7 +58,8 @@ pose's from below (``p(x | u) ≥ p(x, c(x) | u)``).
 joint but the hips and ankles is modelled by its bone's change of log-length since the frame
 before and its direction. As with the anchor, the frame before is in the window: the map
 is block-triangular over time, its log-determinant the sum of the frames', and sampling
-inverts it frame by frame. The first frame's bones are modelled against the data's mean
+inverts it for the whole window at once (each bone's log-length a running sum over the
+frames: :meth:`Glow.window_from_bones`). The first frame's bones are modelled against the data's mean
 pose, each log-length in units of :data:`FIRST_FRAME_UNIT`, so that every frame's channels
 hold lengths and directions (with the first frame's ``x, y, z`` in them instead, some
 samples of held-out windows were not finite: docs/feet.md, "Glow in bone coordinates").
@@ -269,11 +270,16 @@ class Glow(DataContacts, FootAnchor, BoneCoordinates, MotionFlow):
         return torch.cat([first, later], dim=1), logdet.sum(1) + first_logdet.sum(1)
 
     def window_from_bones(self, y: torch.Tensor) -> torch.Tensor:
-        """:meth:`window_to_bones` inverted, frame by frame from the first."""
-        frames = [self.from_bones(y[:, 0], torch.zeros_like(y[:, 0]), FIRST_FRAME_UNIT)]
-        for t in range(1, y.shape[1]):
-            frames.append(self.from_bones(y[:, t], frames[-1]))
-        return torch.stack(frames, dim=1)
+        """:meth:`window_to_bones` inverted. Frame by frame, each bone's log-length is the one
+        before it plus ``K ℓ_t``; so over the window it is the mean pose's plus a running sum,
+        ``ln|o_t| = ln|m| + FIRST_FRAME_UNIT · ℓ_0 + K Σ_{s=1..t} ℓ_s``, and every frame's
+        joints are placed at once."""
+        units = self._bone_units(y.device)
+        mean = self._joints(torch.zeros_like(y[:, :1]), units)                    # the data's mean pose
+        mean_lengths = (mean[..., units.children, :] - mean[..., units.parents, :]).norm(dim=-1)
+        ell = y[..., units.columns[:, 0]].float()                                 # (batch, frames, bones)
+        steps = torch.cat([FIRST_FRAME_UNIT * ell[:, :1], bone_coordinates.LOG_LENGTH_UNIT * ell[:, 1:]], dim=1)
+        return self.place_bones(y, torch.log(mean_lengths) + torch.cumsum(steps, dim=1))
 
     def encode(self, batch: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """``(z, logdet)``: the latent ``(batch, frames * n_modelled)`` and ``Σ ln|det J|`` ``(batch,)``
