@@ -182,7 +182,6 @@ def test_checkpoint_round_trip(synthetic, tmp_path):
     assert torch.equal(loaded.log_likelihood(batch), model.eval().log_likelihood(batch))   # range held alike
 
 
-
 def test_the_control_is_held_within_the_range_seen_in_training(synthetic, tmp_path):
     windows = synthetic.train.windows[:16]
     model = _randomise(Glow(SMALL))
