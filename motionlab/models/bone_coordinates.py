@@ -31,8 +31,8 @@ So each shin, knee to ankle, is the one bone of its leg left free. With ``foot_a
 the spine's, neck's, head's and arms' 12 bones are modelled so (measured on the anchored
 MoGlow and not shipped: one training of two drags its legs on the side-step).
 
-Glow (:mod:`motionlab.models.glow`) uses the same map in every frame of its window but the
-first, given the frame before in the same window.
+Glow (:mod:`motionlab.models.glow`) uses the same map in every frame of its window, given the
+frame before in the same window; the first frame's bones against the data's mean pose.
 """
 from __future__ import annotations
 
@@ -85,8 +85,8 @@ def check_config(config) -> None:
 class BoneUnits(NamedTuple):
     """What the map needs from a normaliser (:meth:`BoneCoordinates._bone_units`)."""
 
-    children: list[int]        # each modelled bone's child joint, parents first
-    parents: list[int]         # and its parent joint
+    children: torch.Tensor     # (bones,) each modelled bone's child joint, parents first
+    parents: torch.Tensor      # (bones,) and its parent joint
     mean: torch.Tensor         # (63,) the pose's mean, metres
     std: torch.Tensor          # (63,) its standard deviation
     modelled: torch.Tensor     # the pose features the flow models, in its column order
@@ -96,7 +96,8 @@ class BoneUnits(NamedTuple):
     e1: torch.Tensor           # (bones, 3) and two orthonormal axes across it
     e2: torch.Tensor
     log_std: float             # Σ ln σ over the children's x, y, z: the log-determinant's constant
-    tiers: list[list[int]]     # the bones (indices) by depth from the joints the flow places: placed tier by tier
+    tiers: list[tuple[torch.Tensor, torch.Tensor, torch.Tensor]]   # by depth from the joints the flow places:
+    #                            each tier's (bones, their children, their parents), placed tier by tier
 
 
 class BoneCoordinates:
@@ -136,11 +137,15 @@ class BoneCoordinates:
         depth = {}
         for k, (child, parent) in enumerate(bones):          # parents first: a parent's depth is known
             depth[child] = depth.get(parent, 0) + 1
-        tiers = [[k for k, (child, _) in enumerate(bones) if depth[child] == d]
-                 for d in range(1, max(depth.values()) + 1)]
+        tiers = []
+        for d in range(1, max(depth.values()) + 1):
+            tier = [k for k, (child, _) in enumerate(bones) if depth[child] == d]
+            tiers.append(tuple(torch.tensor(index, device=device) for index in
+                               (tier, [children[k] for k in tier], [parents[k] for k in tier])))
         axes = torch.tensor([[3 * child + axis for axis in range(3)] for child in children], device=device)
-        return BoneUnits(children, parents, mean, std, torch.tensor(modelled, device=device), columns, axes,
-                         torch.stack(poles), torch.stack(first), torch.stack(second), log_std, tiers)
+        return BoneUnits(torch.tensor(children, device=device), torch.tensor(parents, device=device), mean, std,
+                         torch.tensor(modelled, device=device), columns, axes, torch.stack(poles),
+                         torch.stack(first), torch.stack(second), log_std, tiers)
 
     @staticmethod
     def _joints(x: torch.Tensor, units: BoneUnits) -> torch.Tensor:
@@ -188,14 +193,13 @@ class BoneCoordinates:
         once, whose log-lengths are a sum over its frames (``Glow.window_from_bones``)."""
         units = self._bone_units(y.device)
         joints = self._joints(y, units)                              # the joints not in bones are already y's
-        children, parents = torch.tensor(units.children), torch.tensor(units.parents)
         s1, s2 = (y[..., units.columns[:, axis]].float() for axis in (1, 2))
         n2 = (s1 ** 2 + s2 ** 2)[..., None]                          # the stereographic projection inverted
         u = (2 * (s1[..., None] * units.e1 + s2[..., None] * units.e2) + (n2 - 1) * units.poles) / (n2 + 1)
         bone = torch.exp(log_lengths)[..., None] * u                                # o, (..., bones, 3)
-        for tier in units.tiers:
-            joints[..., children[tier], :] = joints[..., parents[tier], :] + bone[..., tier, :]
+        for tier, children, parents in units.tiers:
+            joints[..., children, :] = joints[..., parents, :] + bone[..., tier, :]
         x = y.clone()
-        placed = (joints[..., children, :] - units.mean[units.axes]) / units.std[units.axes]
+        placed = (joints[..., units.children, :] - units.mean[units.axes]) / units.std[units.axes]
         x[..., units.columns] = placed.to(x.dtype)
         return x
